@@ -1,0 +1,31 @@
+// The cfuse subcommands as testable functions: each takes its parsed options and the streams
+// to write to, and returns the process exit status:
+//   0  success
+//   1  a search or solve found no acceptable answer (from the estimator issues on)
+//   2  bad input: the message names the file and the place (kernel/error.h)
+//   3  internal error: a bug in cfuse (kernel/check.h)
+#pragma once
+
+#include <iosfwd>
+#include <string>
+
+namespace cfuse::cli {
+
+struct CheckOptions {
+  std::string model;
+  bool json = false;
+};
+int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err);
+
+struct GraphOptions {
+  std::string model;
+  std::string output;  // empty: stdout
+};
+int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err);
+
+int RunDemo(std::ostream& out, std::ostream& err);
+
+// The embedded copy of examples/lamp.yaml used by `cfuse demo` (generated at build time).
+extern const char* const kEmbeddedLampYaml;
+
+}  // namespace cfuse::cli

@@ -1,0 +1,109 @@
+#include "cli/summary.h"
+
+#include <cmath>
+#include <ostream>
+
+#include <fmt/format.h>
+
+#include "constraints/evaluate.h"
+
+namespace cfuse::cli {
+
+ModelSummary Summarize(const ConstraintGraph& graph) {
+  ModelSummary s;
+  for (const Component& c : graph.components) {
+    (c.rigid ? s.rigid_components : s.point_components) += 1;
+    s.feature_points += c.rigid ? static_cast<int>(c.points.size()) : 1;
+    s.edges += static_cast<int>(c.edges.size());
+    s.faces += static_cast<int>(c.faces.size());
+  }
+  for (const Block& b : graph.blocks) s.slacks += b.kind == BlockKind::kSlack ? 1 : 0;
+  for (const Constraint& c : graph.constraints) {
+    s.constraints_by_kind[c.kind] += 1;
+    Eigen::VectorXd r;
+    EvaluateResidual(*c.residual, graph.blocks, c.blocks, graph.nominal, &r, nullptr);
+    const double worst = r.size() ? r.cwiseAbs().maxCoeff() : 0.0;
+    if (!(worst <= kNominalTolerance)) {
+      s.violations.push_back({c.name, graph.Describe(c), worst, c.where});
+    }
+  }
+  for (const Joint& j : graph.joints) {
+    if (j.limits && j.limit_constraint < 0) {
+      s.notes.push_back(fmt::format("joint '{}': its limits span a full turn or more, so they do "
+                                    "not restrict it",
+                                    j.name));
+    }
+  }
+  s.dof = AnalyzeDof(graph, graph.nominal);
+  return s;
+}
+
+void PrintSummary(const ConstraintGraph& graph, const ModelSummary& s, std::ostream& out) {
+  out << fmt::format("model: {} ({})\n", graph.name, graph.source);
+  out << fmt::format("components: {} ({} rigid, {} single-point)\n", graph.components.size(),
+                     s.rigid_components, s.point_components);
+  out << fmt::format("points: {}   edges: {}   faces: {}\n", s.feature_points, s.edges, s.faces);
+  std::string joints;
+  for (const Joint& j : graph.joints) {
+    joints += fmt::format("{}{} ({})", joints.empty() ? "" : ", ", j.name, JointTypeName(j.type));
+  }
+  out << fmt::format("joints: {}{}\n", graph.joints.size(), joints.empty() ? "" : ": " + joints);
+  std::string kinds;
+  for (const auto& [kind, n] : s.constraints_by_kind) {
+    kinds += fmt::format("{}{} {}", kinds.empty() ? "" : ", ", n, kind);
+  }
+  out << fmt::format("constraints: {}{}\n", graph.constraints.size(),
+                     kinds.empty() ? "" : " (" + kinds + ")");
+  out << fmt::format("equations: {}   slack variables: {}\n", s.dof.equations, s.slacks);
+  out << fmt::format("state dimension: {}   constraint Jacobian rank: {}\n", s.dof.state_dim,
+                     s.dof.rank);
+  out << fmt::format("DOF: {} ({} rigid-body + {} internal)\n", s.dof.dof, s.dof.rigid_body,
+                     s.dof.internal);
+  for (const auto& [name, rows] : s.dof.redundant) {
+    const Constraint& c = graph.constraints[graph.FindConstraint(name)];
+    out << fmt::format("note: constraint '{}' ({}) is redundant in {} of its {} equation{}\n", name,
+                       graph.Describe(c), rows, c.residual->dimension(),
+                       c.residual->dimension() == 1 ? "" : "s");
+  }
+  for (const std::string& note : s.notes) out << "note: " << note << "\n";
+  for (const Violation& v : s.violations) {
+    out << fmt::format("{}: warning: constraint '{}' ({}) is violated by the nominal geometry "
+                       "(largest residual {:.3g})\n",
+                       v.where.ToString(), v.constraint, v.formula, v.residual);
+  }
+}
+
+nlohmann::json SummaryJson(const ConstraintGraph& graph, const ModelSummary& s) {
+  nlohmann::json j;
+  j["model"] = graph.name;
+  j["source"] = graph.source;
+  j["components"] = {{"total", graph.components.size()},
+                     {"rigid", s.rigid_components},
+                     {"single_point", s.point_components}};
+  j["points"] = s.feature_points;
+  j["edges"] = s.edges;
+  j["faces"] = s.faces;
+  j["joints"] = nlohmann::json::array();
+  for (const Joint& jt : graph.joints) {
+    j["joints"].push_back({{"name", jt.name}, {"type", JointTypeName(jt.type)}});
+  }
+  j["constraints"] = {{"total", graph.constraints.size()}, {"by_kind", s.constraints_by_kind}};
+  j["equations"] = s.dof.equations;
+  j["slack_variables"] = s.slacks;
+  j["state_dimension"] = s.dof.state_dim;
+  j["rank"] = s.dof.rank;
+  j["dof"] = {{"total", s.dof.dof}, {"rigid_body", s.dof.rigid_body}, {"internal", s.dof.internal}};
+  j["redundant"] = nlohmann::json::array();
+  for (const auto& [name, rows] : s.dof.redundant) j["redundant"].push_back({{"constraint", name}, {"rows", rows}});
+  j["violations"] = nlohmann::json::array();
+  for (const Violation& v : s.violations) {
+    j["violations"].push_back({{"constraint", v.constraint},
+                               {"formula", v.formula},
+                               {"residual", v.residual},
+                               {"where", v.where.ToString()}});
+  }
+  j["notes"] = s.notes;
+  return j;
+}
+
+}  // namespace cfuse::cli

@@ -1,0 +1,38 @@
+// What `cfuse check` reports about a model: its parts, constraints by kind, degrees of freedom
+// and the constraints the nominal geometry violates.
+#pragma once
+
+#include <map>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "constraints/dof.h"
+#include "constraints/graph.h"
+
+namespace cfuse::cli {
+
+struct Violation {
+  std::string constraint;
+  std::string formula;
+  double residual = 0;  // largest |r_i| at the nominal geometry
+  SourceLocation where;
+};
+
+struct ModelSummary {
+  int point_components = 0, rigid_components = 0, feature_points = 0, edges = 0, faces = 0;
+  std::map<std::string, int> constraints_by_kind;
+  int slacks = 0;
+  DofReport dof;
+  std::vector<Violation> violations;
+  std::vector<std::string> notes;
+};
+
+// Residuals above this at the nominal geometry are reported as violations.
+inline constexpr double kNominalTolerance = 1e-9;
+
+ModelSummary Summarize(const ConstraintGraph& graph);
+void PrintSummary(const ConstraintGraph& graph, const ModelSummary& s, std::ostream& out);
+nlohmann::json SummaryJson(const ConstraintGraph& graph, const ModelSummary& s);
+
+}  // namespace cfuse::cli

@@ -1,0 +1,78 @@
+#include "constraints/graph.h"
+
+#include <array>
+
+namespace cfuse {
+namespace {
+constexpr std::array<std::pair<JointType, const char*>, 5> kJointTypes = {{
+    {JointType::kRevolute, "revolute"},
+    {JointType::kContinuous, "continuous"},
+    {JointType::kPrismatic, "prismatic"},
+    {JointType::kSpherical, "spherical"},
+    {JointType::kFixed, "fixed"},
+}};
+}  // namespace
+
+int Component::FindPoint(std::string_view point_name) const {
+  for (size_t i = 0; i < points.size(); ++i) {
+    if (points[i].name == point_name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+const char* JointTypeName(JointType type) {
+  for (const auto& [t, name] : kJointTypes) {
+    if (t == type) return name;
+  }
+  return "?";
+}
+
+std::optional<JointType> ParseJointType(std::string_view name) {
+  for (const auto& [t, n] : kJointTypes) {
+    if (name == n) return t;
+  }
+  return std::nullopt;
+}
+
+bool HasJointVariable(JointType type) {
+  return type == JointType::kRevolute || type == JointType::kContinuous ||
+         type == JointType::kPrismatic;
+}
+
+int ConstraintGraph::tangent_dim() const {
+  int n = 0;
+  for (const Block& b : blocks) n += TangentDim(b.kind);
+  return n;
+}
+
+int ConstraintGraph::num_equations() const {
+  int m = 0;
+  for (const Constraint& c : constraints) m += c.residual->dimension();
+  return m;
+}
+
+template <typename Items>
+static int FindByName(const Items& items, std::string_view name) {
+  for (size_t i = 0; i < items.size(); ++i) {
+    if (items[i].name == name) return static_cast<int>(i);
+  }
+  return -1;
+}
+
+int ConstraintGraph::FindComponent(std::string_view n) const { return FindByName(components, n); }
+int ConstraintGraph::FindJoint(std::string_view n) const { return FindByName(joints, n); }
+int ConstraintGraph::FindConstraint(std::string_view n) const {
+  return FindByName(constraints, n);
+}
+
+std::vector<std::string> ConstraintGraph::SlotNames(const Constraint& c) const {
+  std::vector<std::string> names;
+  for (int b : c.blocks) names.push_back(blocks.at(b).name);
+  return names;
+}
+
+std::string ConstraintGraph::Describe(const Constraint& c) const {
+  return c.residual->Describe(SlotNames(c));
+}
+
+}  // namespace cfuse

@@ -1,0 +1,116 @@
+// The symbolic constraint graph: an immutable model of a constrained object.
+//
+// Built by the model DSL (dsl/) or an importer through ModelBuilder, then only read. It holds
+//   - blocks: the variables (values.h), one per component plus one slack per inequality;
+//   - components: single-point (one kPoint block) or rigid (one kPose block) with named feature
+//     points in component coordinates, edges and faces;
+//   - joints between rigid components (each also a constraint, and limits a second one);
+//   - constraints: residual functions over blocks, zero when the constraint holds (Hel-Or &
+//     Werman's ψ_k(T) = 0, inequalities already in slack form g(x) - λ² = 0);
+//   - nominal: the model's geometry, a Values that is also the default initial guess.
+// Working data (estimates, covariances) lives elsewhere: model apart from data.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "constraints/residual.h"
+#include "constraints/values.h"
+#include "kernel/error.h"
+#include "kernel/rigid3.h"
+
+namespace cfuse {
+
+struct FeaturePoint {
+  std::string name;
+  Eigen::Vector3d position;  // in component coordinates
+  SourceLocation where;
+};
+
+struct Edge {
+  std::string name;
+  int a = 0, b = 0;  // indices into Component::points
+  SourceLocation where;
+};
+
+// A planar polygon; its loop runs counter-clockwise seen from outside the object (right-hand
+// rule gives the outward normal).
+struct Face {
+  std::string name;
+  std::vector<int> loop;  // indices into Component::points
+  SourceLocation where;
+};
+
+struct Component {
+  std::string name;
+  bool rigid = false;  // rigid: 6-DOF pose block; otherwise one 3-DOF point block (§5)
+  // A rigid component's nominal pose was given (or set by a joint); when not, a joint whose
+  // child it is places it.
+  bool pose_given = false;
+  int block = -1;
+  std::vector<FeaturePoint> points;  // rigid only; a single-point component has none
+  std::vector<Edge> edges;
+  std::vector<Face> faces;
+  SourceLocation where;
+
+  int FindPoint(std::string_view point_name) const;  // -1 if absent
+};
+
+enum class JointType { kRevolute, kContinuous, kPrismatic, kSpherical, kFixed };
+const char* JointTypeName(JointType type);
+std::optional<JointType> ParseJointType(std::string_view name);
+// True for joint types with a scalar joint variable (revolute, continuous, prismatic).
+bool HasJointVariable(JointType type);
+
+// The joint frame J is fixed on both sides: parent_from_joint on the parent and
+// child_from_joint on the child. The joint holds when
+//   (world_from_parent * parent_from_joint)^-1 * (world_from_child * child_from_joint)
+//     = Motion(q),
+// Motion(q) a rotation by q about `axis` (revolute, continuous), a translation by q along it
+// (prismatic), any rotation (spherical) or the identity (fixed).
+struct Joint {
+  std::string name;
+  JointType type = JointType::kFixed;
+  int parent = -1, child = -1;  // component indices
+  Rigid3d parent_from_joint;
+  Rigid3d child_from_joint;
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit, in the joint frame
+  std::optional<std::pair<double, double>> limits;  // [lower, upper] in rad or m
+  double nominal_position = 0;                      // q at the nominal geometry
+  int constraint = -1;                              // index of the joint's constraint
+  int limit_constraint = -1;                        // index of its limit constraint, or -1
+  SourceLocation where;
+};
+
+struct Constraint {
+  std::string name;
+  std::string kind;  // e.g. "distance ==", "parallel", "revolute joint", "joint limit"
+  std::shared_ptr<const ResidualFunction> residual;
+  std::vector<int> blocks;  // the residual's slots: block ids
+  int slack_block = -1;     // the slack of an inequality (also among `blocks`), or -1
+  SourceLocation where;
+};
+
+struct ConstraintGraph {
+  std::string name;         // the model's name
+  std::string source;       // the file it came from
+  std::vector<Block> blocks;
+  std::vector<Component> components;
+  std::vector<Joint> joints;
+  std::vector<Constraint> constraints;
+  Values nominal;
+
+  int tangent_dim() const;
+  int num_equations() const;  // sum of the constraints' dimensions
+  int FindComponent(std::string_view name) const;  // -1 if absent
+  int FindJoint(std::string_view name) const;
+  int FindConstraint(std::string_view name) const;
+  // The names of a constraint's slots, for ResidualFunction::Describe.
+  std::vector<std::string> SlotNames(const Constraint& c) const;
+  std::string Describe(const Constraint& c) const;
+};
+
+}  // namespace cfuse

@@ -1,0 +1,31 @@
+// The constraint kinds the model languages can name. Adding a kind is one header in this
+// folder (a residual templated on the scalar, with a Create factory), its test, and one line
+// in registry.cpp.
+#pragma once
+
+#include <string_view>
+#include <vector>
+
+#include "constraints/graph.h"
+#include "constraints/kinds/joint_frames.h"
+#include "constraints/kinds/kind_support.h"
+
+namespace cfuse {
+
+// A relation written as a call: parallel(u, v), coplanar(a, b, c, d, ...), rigid(...).
+struct RelationKind {
+  const char* name;
+  int min_args;
+  int max_args;  // -1: no upper bound
+  const char* usage;
+  ConstraintParts (*create)(std::vector<ExprPtr> args, const KindContext& ctx);
+};
+
+const RelationKind* FindRelation(std::string_view name);
+const std::vector<RelationKind>& AllRelations();
+
+// The residual of a joint of this type, over the slots (parent pose, child pose).
+std::shared_ptr<const ResidualFunction> MakeJointResidual(JointType type,
+                                                          const JointGeometry& geometry);
+
+}  // namespace cfuse

@@ -1,0 +1,437 @@
+#include "constraints/model_builder.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <fmt/format.h>
+
+#include "constraints/evaluate.h"
+#include "constraints/kinds/fix_pose.h"
+#include "constraints/kinds/joint_residual.h"
+#include "constraints/kinds/registry.h"
+#include "kernel/check.h"
+
+namespace cfuse {
+namespace {
+
+Rigid3d Motion(JointType type, const Eigen::Vector3d& axis, double q) {
+  switch (type) {
+    case JointType::kRevolute:
+    case JointType::kContinuous:
+      return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
+    case JointType::kPrismatic:
+      return Rigid3d(Eigen::Quaterniond::Identity(), axis * q);
+    default:
+      return Rigid3d();
+  }
+}
+
+std::string Located(const SourceLocation& where) {
+  return where.known() ? " (at " + where.ToString() + ")" : "";
+}
+
+}  // namespace
+
+ModelBuilder::ModelBuilder(std::string model_name, std::string source) {
+  graph_.name = std::move(model_name);
+  graph_.source = std::move(source);
+}
+
+bool ModelBuilder::IsIdentifier(std::string_view name) {
+  if (name.empty()) return false;
+  auto alpha = [](char c) { return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || c == '_'; };
+  if (!alpha(name[0])) return false;
+  for (char c : name) {
+    if (!alpha(c) && !(c >= '0' && c <= '9')) return false;
+  }
+  return true;
+}
+
+void ModelBuilder::RequireIdentifier(const std::string& name, const char* what,
+                                     const SourceLocation& where) {
+  if (!IsIdentifier(name)) {
+    throw InputError(where, fmt::format("invalid {} name '{}': names are letters, digits and '_', "
+                                        "not starting with a digit",
+                                        what, name));
+  }
+}
+
+int ModelBuilder::AddBlock(BlockKind kind, const std::string& name) {
+  Block b;
+  b.kind = kind;
+  b.name = name;
+  b.tangent_offset = graph_.tangent_dim();
+  switch (kind) {
+    case BlockKind::kPoint:
+      b.index = static_cast<int>(graph_.nominal.points.size());
+      graph_.nominal.points.push_back(Eigen::Vector3d::Zero());
+      break;
+    case BlockKind::kPose:
+      b.index = static_cast<int>(graph_.nominal.poses.size());
+      graph_.nominal.poses.push_back(Rigid3d());
+      break;
+    case BlockKind::kSlack:
+      b.index = static_cast<int>(graph_.nominal.slacks.size());
+      graph_.nominal.slacks.push_back(0.0);
+      break;
+  }
+  graph_.blocks.push_back(b);
+  return static_cast<int>(graph_.blocks.size()) - 1;
+}
+
+void ModelBuilder::RequireUniqueComponent(const std::string& name,
+                                          const SourceLocation& where) const {
+  const int existing = graph_.FindComponent(name);
+  if (existing >= 0) {
+    throw InputError(where, fmt::format("duplicate component name '{}', first defined{}", name,
+                                        Located(graph_.components[existing].where)));
+  }
+}
+
+void ModelBuilder::RequireUniqueConstraint(const std::string& name,
+                                           const SourceLocation& where) const {
+  const int existing = graph_.FindConstraint(name);
+  if (existing >= 0) {
+    throw InputError(where, fmt::format("duplicate constraint name '{}', first defined{}", name,
+                                        Located(graph_.constraints[existing].where)));
+  }
+}
+
+int ModelBuilder::AddPointComponent(const std::string& name, const Eigen::Vector3d& position,
+                                    const SourceLocation& where) {
+  RequireIdentifier(name, "point", where);
+  RequireUniqueComponent(name, where);
+  Component c;
+  c.name = name;
+  c.rigid = false;
+  c.block = AddBlock(BlockKind::kPoint, name);
+  c.where = where;
+  graph_.nominal.points[graph_.blocks[c.block].index] = position;
+  graph_.components.push_back(std::move(c));
+  return static_cast<int>(graph_.components.size()) - 1;
+}
+
+int ModelBuilder::AddRigidComponent(const std::string& name,
+                                    const std::optional<Rigid3d>& world_from_component,
+                                    const SourceLocation& where) {
+  RequireIdentifier(name, "component", where);
+  RequireUniqueComponent(name, where);
+  Component c;
+  c.name = name;
+  c.rigid = true;
+  c.block = AddBlock(BlockKind::kPose, name);
+  c.where = where;
+  graph_.components.push_back(std::move(c));
+  const int index = static_cast<int>(graph_.components.size()) - 1;
+  SetNominalPose(index, world_from_component.value_or(Rigid3d()));
+  graph_.components[index].pose_given = world_from_component.has_value();
+  return index;
+}
+
+void ModelBuilder::SetNominalPose(int component, const Rigid3d& world_from_component) {
+  const Component& c = graph_.components.at(component);
+  CFUSE_CHECK(c.rigid);
+  for (const Constraint& k : graph_.constraints) {
+    for (int b : k.blocks) CFUSE_CHECK_MSG(b != c.block, "nominal pose changed under a constraint");
+  }
+  Rigid3d pose = world_from_component;
+  pose.rotation.normalize();
+  graph_.nominal.poses[graph_.blocks[c.block].index] = pose;
+}
+
+int ModelBuilder::AddFeaturePoint(int component, const std::string& name,
+                                  const Eigen::Vector3d& position, const SourceLocation& where) {
+  Component& c = graph_.components.at(component);
+  CFUSE_CHECK(c.rigid);
+  RequireIdentifier(name, "point", where);
+  const int existing = c.FindPoint(name);
+  if (existing >= 0) {
+    throw InputError(where, fmt::format("duplicate point name '{}' in component '{}', first "
+                                        "defined{}",
+                                        name, c.name, Located(c.points[existing].where)));
+  }
+  c.points.push_back({name, position, where});
+  return static_cast<int>(c.points.size()) - 1;
+}
+
+void ModelBuilder::AddEdge(int component, const std::string& name, int a, int b,
+                           const SourceLocation& where) {
+  Component& c = graph_.components.at(component);
+  RequireIdentifier(name, "edge", where);
+  for (const Edge& e : c.edges) {
+    if (e.name == name) {
+      throw InputError(where, fmt::format("duplicate edge name '{}' in component '{}', first "
+                                          "defined{}",
+                                          name, c.name, Located(e.where)));
+    }
+  }
+  if (a == b) throw InputError(where, fmt::format("edge '{}' joins a point to itself", name));
+  c.edges.push_back({name, a, b, where});
+}
+
+void ModelBuilder::AddFace(int component, const std::string& name, std::vector<int> loop,
+                           const SourceLocation& where) {
+  Component& c = graph_.components.at(component);
+  RequireIdentifier(name, "face", where);
+  for (const Face& f : c.faces) {
+    if (f.name == name) {
+      throw InputError(where, fmt::format("duplicate face name '{}' in component '{}', first "
+                                          "defined{}",
+                                          name, c.name, Located(f.where)));
+    }
+  }
+  if (loop.size() < 3) {
+    throw InputError(where, fmt::format("face '{}' has {} points; a face needs at least 3", name,
+                                        loop.size()));
+  }
+  for (size_t i = 0; i < loop.size(); ++i)
+    for (size_t j = i + 1; j < loop.size(); ++j)
+      if (loop[i] == loop[j]) {
+        throw InputError(where, fmt::format("face '{}' visits point '{}' twice", name,
+                                            c.points[loop[i]].name));
+      }
+  c.faces.push_back({name, std::move(loop), where});
+}
+
+int ModelBuilder::AddJoint(const JointSpec& spec) {
+  RequireIdentifier(spec.name, "joint", spec.where);
+  if (graph_.FindJoint(spec.name) >= 0) {
+    throw InputError(spec.where, fmt::format("duplicate joint name '{}', first defined{}", spec.name,
+                                             Located(graph_.joints[graph_.FindJoint(spec.name)].where)));
+  }
+  RequireUniqueConstraint(spec.name, spec.where);
+  const Component& parent = graph_.components.at(spec.parent);
+  const Component& child = graph_.components.at(spec.child);
+  for (const Component* c : {&parent, &child}) {
+    if (!c->rigid) {
+      throw InputError(spec.where, fmt::format("joint '{}': '{}' is a single-point component; "
+                                               "joints connect rigid components",
+                                               spec.name, c->name));
+    }
+  }
+  if (spec.parent == spec.child) {
+    throw InputError(spec.where, fmt::format("joint '{}' connects '{}' to itself", spec.name,
+                                             parent.name));
+  }
+  for (const Joint& j : graph_.joints) {
+    if (j.child == spec.child) {
+      throw InputError(spec.where,
+                       fmt::format("joint '{}': component '{}' is already the child of joint "
+                                   "'{}'{}; close a kinematic loop with a constraint instead",
+                                   spec.name, child.name, j.name, Located(j.where)));
+    }
+  }
+  // A cycle: the parent is a descendant of the child.
+  for (int c = spec.parent;;) {
+    int up = -1;
+    for (const Joint& j : graph_.joints) {
+      if (j.child == c) up = j.parent;
+    }
+    if (up < 0) break;
+    if (up == spec.child) {
+      throw InputError(spec.where, fmt::format("joint '{}' closes a cycle: '{}' is already an "
+                                               "ancestor of '{}'",
+                                               spec.name, child.name, parent.name));
+    }
+    c = up;
+  }
+  const double axis_norm = spec.axis.norm();
+  if (!(axis_norm > 1e-9) || !std::isfinite(axis_norm)) {
+    throw InputError(spec.where, fmt::format("joint '{}': the axis has zero length", spec.name));
+  }
+  const bool has_variable = HasJointVariable(spec.type);
+  if (spec.limits) {
+    if (!has_variable || spec.type == JointType::kContinuous) {
+      throw InputError(spec.where,
+                       fmt::format("joint '{}': a {} joint has no limits{}", spec.name,
+                                   JointTypeName(spec.type),
+                                   spec.type == JointType::kContinuous ? " (use revolute)" : ""));
+    }
+    if (!(spec.limits->first < spec.limits->second)) {
+      throw InputError(spec.where, fmt::format("joint '{}': the lower limit is not below the "
+                                               "upper limit",
+                                               spec.name));
+    }
+  }
+  if (!has_variable && spec.position != 0) {
+    throw InputError(spec.where, fmt::format("joint '{}': a {} joint has no position", spec.name,
+                                             JointTypeName(spec.type)));
+  }
+
+  Joint joint;
+  joint.name = spec.name;
+  joint.type = spec.type;
+  joint.parent = spec.parent;
+  joint.child = spec.child;
+  joint.parent_from_joint = spec.parent_from_joint;
+  joint.parent_from_joint.rotation.normalize();
+  joint.axis = spec.axis / axis_norm;
+  joint.limits = spec.limits;
+  joint.nominal_position = spec.position;
+  joint.where = spec.where;
+
+  const Rigid3d world_from_parent = graph_.nominal.poses[graph_.blocks[parent.block].index];
+  const Rigid3d world_from_joint_c =
+      world_from_parent * joint.parent_from_joint * Motion(spec.type, joint.axis, spec.position);
+  if (!child.pose_given) {
+    for (const Constraint& k : graph_.constraints) {
+      if (std::find(k.blocks.begin(), k.blocks.end(), child.block) != k.blocks.end()) {
+        throw InputError(spec.where,
+                         fmt::format("joint '{}' would place component '{}', but constraint '{}'{} "
+                                     "already uses its nominal pose: give '{}' a pose",
+                                     spec.name, child.name, k.name, Located(k.where), child.name));
+      }
+    }
+    SetNominalPose(spec.child, world_from_joint_c);
+    graph_.components[spec.child].pose_given = true;
+    joint.child_from_joint = Rigid3d();
+  } else {
+    const Rigid3d world_from_child = graph_.nominal.poses[graph_.blocks[child.block].index];
+    joint.child_from_joint = world_from_child.Inverse() * world_from_joint_c;
+  }
+
+  const JointGeometry geometry(joint.parent_from_joint, joint.child_from_joint, joint.axis);
+  ConstraintParts parts{MakeJointResidual(spec.type, geometry), {parent.block, child.block}, -1};
+  joint.constraint = AddConstraint(spec.name, fmt::format("{} joint", JointTypeName(spec.type)),
+                                   std::move(parts), spec.where);
+  const bool prismatic = spec.type == JointType::kPrismatic;
+  // A revolute range of a full turn or more does not restrict the angle.
+  if (spec.limits && (prismatic || spec.limits->second - spec.limits->first < 2 * M_PI)) {
+    const std::string name = UniqueConstraintName(spec.name + "_limit");
+    const int slack = AddSlack(name);
+    const auto [lo, hi] = *spec.limits;
+    const double half = 0.5 * (hi - lo);
+    const double u = (spec.position - 0.5 * (lo + hi)) / half;
+    SetSlackNominal(slack, NominalSlack(1 - u * u));
+    ConstraintParts limit{std::make_shared<JointLimitResidual>(geometry, prismatic, lo, hi),
+                          {parent.block, child.block, slack},
+                          slack};
+    joint.limit_constraint = AddConstraint(name, "joint limit", std::move(limit), spec.where);
+  }
+  graph_.joints.push_back(std::move(joint));
+  return static_cast<int>(graph_.joints.size()) - 1;
+}
+
+int ModelBuilder::AddSlack(const std::string& constraint_name) {
+  return AddBlock(BlockKind::kSlack, constraint_name + ".slack");
+}
+
+void ModelBuilder::SetSlackNominal(int slack_block, double value) {
+  const Block& b = graph_.blocks.at(slack_block);
+  CFUSE_CHECK(b.kind == BlockKind::kSlack);
+  graph_.nominal.slacks[b.index] = value;
+}
+
+std::string ModelBuilder::UniqueConstraintName(const std::string& preferred) const {
+  if (graph_.FindConstraint(preferred) < 0) return preferred;
+  for (int i = 2;; ++i) {
+    const std::string name = fmt::format("{}_{}", preferred, i);
+    if (graph_.FindConstraint(name) < 0) return name;
+  }
+}
+
+int ModelBuilder::AddConstraint(const std::string& name, const std::string& kind,
+                                ConstraintParts parts, const SourceLocation& where) {
+  RequireUniqueConstraint(name, where);
+  CFUSE_CHECK(parts.residual != nullptr);
+  Constraint c;
+  c.name = name;
+  c.kind = kind;
+  c.residual = std::move(parts.residual);
+  c.blocks = std::move(parts.blocks);
+  c.slack_block = parts.slack_block;
+  c.where = where;
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;
+  EvaluateResidual(*c.residual, graph_.blocks, c.blocks, graph_.nominal, &r, &J);
+  if (!r.allFinite() || !J.allFinite()) {
+    throw InputError(where, fmt::format("constraint '{}' ({}) is not differentiable at the nominal "
+                                        "geometry: a length or an angle in it is degenerate there "
+                                        "(coincident points, a zero-length vector, or an angle of "
+                                        "exactly 0 or 180 degrees)",
+                                        name, graph_.Describe(c)));
+  }
+  graph_.constraints.push_back(std::move(c));
+  return static_cast<int>(graph_.constraints.size()) - 1;
+}
+
+int ModelBuilder::FixComponent(int component, bool position, bool orientation,
+                               const Rigid3d& target, const SourceLocation& where) {
+  const Component& c = graph_.components.at(component);
+  CFUSE_CHECK(c.rigid && (position || orientation));
+  const char* what = position && orientation ? "pose" : position ? "position" : "orientation";
+  const std::string name = UniqueConstraintName(fmt::format("fixed_{}", c.name));
+  ConstraintParts parts{std::make_shared<FixPoseResidual>(target, position, orientation),
+                        {c.block},
+                        -1};
+  return AddConstraint(name, fmt::format("fixed {}", what), std::move(parts), where);
+}
+
+KindContext ModelBuilder::Context(int slack_block) const {
+  return KindContext{&graph_.blocks, &graph_.nominal, slack_block};
+}
+
+void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix,
+                         const SourceLocation& where) {
+  const int block0 = static_cast<int>(graph_.blocks.size());
+  const int component0 = static_cast<int>(graph_.components.size());
+  const int constraint0 = static_cast<int>(graph_.constraints.size());
+  for (const Component& c : other.components) {
+    if (graph_.FindComponent(prefix + c.name) >= 0) {
+      throw InputError(where, fmt::format("including '{}' defines component '{}'{} again, first "
+                                          "defined{}",
+                                          other.source, prefix + c.name, Located(c.where),
+                                          Located(graph_.components[graph_.FindComponent(prefix + c.name)].where)));
+    }
+  }
+  for (const Joint& j : other.joints) {
+    if (graph_.FindJoint(prefix + j.name) >= 0) {
+      throw InputError(where, fmt::format("including '{}' defines joint '{}'{} again", other.source,
+                                          prefix + j.name, Located(j.where)));
+    }
+  }
+  for (const Constraint& c : other.constraints) {
+    if (graph_.FindConstraint(prefix + c.name) >= 0) {
+      throw InputError(where, fmt::format("including '{}' defines constraint '{}'{} again",
+                                          other.source, prefix + c.name, Located(c.where)));
+    }
+  }
+  for (const Block& b : other.blocks) {
+    const int id = AddBlock(b.kind, prefix + b.name);
+    const Block& nb = graph_.blocks[id];
+    switch (b.kind) {
+      case BlockKind::kPoint:
+        graph_.nominal.points[nb.index] = other.nominal.points[b.index];
+        break;
+      case BlockKind::kPose:
+        graph_.nominal.poses[nb.index] = other.nominal.poses[b.index];
+        break;
+      case BlockKind::kSlack:
+        graph_.nominal.slacks[nb.index] = other.nominal.slacks[b.index];
+        break;
+    }
+  }
+  for (Component c : other.components) {
+    c.name = prefix + c.name;
+    c.block += block0;
+    graph_.components.push_back(std::move(c));
+  }
+  for (Constraint c : other.constraints) {
+    c.name = prefix + c.name;
+    for (int& b : c.blocks) b += block0;
+    if (c.slack_block >= 0) c.slack_block += block0;
+    graph_.constraints.push_back(std::move(c));
+  }
+  for (Joint j : other.joints) {
+    j.name = prefix + j.name;
+    j.parent += component0;
+    j.child += component0;
+    j.constraint += constraint0;
+    if (j.limit_constraint >= 0) j.limit_constraint += constraint0;
+    graph_.joints.push_back(std::move(j));
+  }
+}
+
+ConstraintGraph ModelBuilder::Build() && { return std::move(graph_); }
+
+}  // namespace cfuse

@@ -1,0 +1,659 @@
+#include "dsl/model_loader.h"
+
+#include <yaml-cpp/yaml.h>
+
+#include <cerrno>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+#include <fmt/format.h>
+
+#include "constraints/kinds/equality.h"
+#include "constraints/model_builder.h"
+#include "dsl/lower.h"
+#include "dsl/units.h"
+
+namespace cfuse::dsl {
+namespace {
+
+namespace fs = std::filesystem;
+
+// ---------------------------------------------------------------------------------------------
+// Raw file checks: everything that must be refused before YAML sees the bytes.
+
+std::string ReadModelFile(const std::string& path, const SourceLocation& where) {
+  std::error_code ec;
+  const fs::file_status status = fs::status(path, ec);
+  if (ec || !fs::exists(status)) {
+    throw InputError(where.known() ? where : SourceLocation(path),
+                     where.known() ? fmt::format("cannot open '{}': no such file", path)
+                                   : "cannot open: no such file");
+  }
+  if (fs::is_directory(status)) {
+    throw InputError(SourceLocation(path), "is a directory, not a model file");
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError(SourceLocation(path), fmt::format("cannot open: {}", std::strerror(errno)));
+  std::string text;
+  char buffer[1 << 16];
+  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
+    text.append(buffer, static_cast<size_t>(in.gcount()));
+    if (text.size() > kMaxModelFileBytes) {
+      throw InputError(SourceLocation(path), fmt::format("file is larger than the {} MiB limit for "
+                                                         "model files",
+                                                         kMaxModelFileBytes >> 20));
+    }
+  }
+  return text;
+}
+
+SourceLocation LocationOfOffset(const std::string& file, std::string_view text, size_t offset) {
+  int line = 1, column = 1;
+  for (size_t i = 0; i < offset && i < text.size(); ++i) {
+    if (text[i] == '\n') {
+      ++line;
+      column = 1;
+    } else {
+      ++column;
+    }
+  }
+  return SourceLocation(file, line, column);
+}
+
+void CheckText(const std::string& file, std::string_view text) {
+  const size_t nul = text.find('\0');
+  if (nul != std::string_view::npos) {
+    throw InputError(SourceLocation(file),
+                     fmt::format("is a binary file, not a YAML model (NUL byte at offset {})", nul));
+  }
+  // UTF-8 validation: YAML text must be UTF-8.
+  for (size_t i = 0; i < text.size();) {
+    const unsigned char c = static_cast<unsigned char>(text[i]);
+    int extra = c < 0x80 ? 0 : (c >> 5) == 0x6 ? 1 : (c >> 4) == 0xE ? 2 : (c >> 3) == 0x1E ? 3 : -1;
+    bool ok = extra >= 0 && i + extra < text.size() + (extra == 0 ? 1 : 0);
+    for (int k = 1; ok && k <= extra; ++k) {
+      ok = i + k < text.size() && (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
+    }
+    if (!ok) {
+      throw InputError(LocationOfOffset(file, text, i),
+                       fmt::format("is not UTF-8 text (byte 0x{:02X}); is it a binary file?", c));
+    }
+    i += extra + 1;
+  }
+  bool blank = true;
+  std::istringstream lines{std::string(text)};
+  for (std::string line; std::getline(lines, line);) {
+    const size_t first = line.find_first_not_of(" \t\r");
+    if (first != std::string::npos && line[first] != '#') blank = false;
+  }
+  if (blank) throw InputError(SourceLocation(file), "file is empty: a model needs components or points");
+}
+
+// ---------------------------------------------------------------------------------------------
+// A YAML document with the helpers that turn shape errors into located messages.
+
+class Document {
+ public:
+  Document(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
+
+  const std::string& file() const { return file_; }
+
+  YAML::Node Parse() const {
+    try {
+      return YAML::Load(text_);
+    } catch (const YAML::ParserException& e) {
+      throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
+                       fmt::format("YAML syntax error: {}", e.msg));
+    }
+  }
+
+  SourceLocation Loc(const YAML::Node& node) const {
+    const YAML::Mark m = node.Mark();
+    if (m.is_null()) return SourceLocation(file_);
+    return SourceLocation(file_, m.line + 1, m.column + 1);
+  }
+
+  // Where the characters of a scalar start, exactly when they appear verbatim in the file.
+  TextOrigin Origin(const YAML::Node& node) const {
+    TextOrigin o{file_, 0, 0, false};
+    const YAML::Mark m = node.Mark();
+    if (m.is_null()) return o;
+    o.line = m.line + 1;
+    o.column = m.column + 1;
+    const std::string& s = node.Scalar();
+    const size_t pos = static_cast<size_t>(m.pos);
+    if (text_.compare(pos, s.size(), s) == 0) {
+      o.exact = true;
+    } else if (pos < text_.size() && (text_[pos] == '"' || text_[pos] == '\'') &&
+               text_.compare(pos + 1, s.size(), s) == 0) {
+      o.exact = true;
+      o.column += 1;
+    }
+    return o;
+  }
+
+  [[noreturn]] void Fail(const YAML::Node& node, const std::string& message) const {
+    throw InputError(Loc(node), message);
+  }
+
+  void RequireMap(const YAML::Node& node, const std::string& what) const {
+    if (!node.IsMap()) Fail(node, fmt::format("{} must be a mapping (key: value)", what));
+  }
+  void RequireSequence(const YAML::Node& node, const std::string& what) const {
+    if (!node.IsSequence()) Fail(node, fmt::format("{} must be a list", what));
+  }
+  std::string Scalar(const YAML::Node& node, const std::string& what) const {
+    if (!node.IsScalar()) Fail(node, fmt::format("{} must be a single value", what));
+    return node.Scalar();
+  }
+
+  // Entries of a mapping in file order, refusing duplicate keys and keys not in `allowed`
+  // (when given).
+  std::vector<std::pair<YAML::Node, YAML::Node>> Entries(const YAML::Node& map,
+                                                         const std::string& what,
+                                                         const std::vector<std::string>& allowed) const {
+    RequireMap(map, what);
+    std::vector<std::pair<YAML::Node, YAML::Node>> out;
+    std::set<std::string> seen;
+    for (auto it = map.begin(); it != map.end(); ++it) {
+      const YAML::Node key = it->first;
+      const std::string k = Scalar(key, fmt::format("a key of {}", what));
+      if (!seen.insert(k).second) Fail(key, fmt::format("duplicate key '{}' in {}", k, what));
+      if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), k) == allowed.end()) {
+        const std::string s = Suggest(k, allowed);
+        std::string list;
+        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
+        Fail(key, fmt::format("unknown key '{}' in {}{}; expected one of: {}", k, what,
+                              s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s), list));
+      }
+      out.emplace_back(key, it->second);
+    }
+    return out;
+  }
+
+  static YAML::Node Find(const std::vector<std::pair<YAML::Node, YAML::Node>>& entries,
+                         const std::string& key) {
+    for (const auto& [k, v] : entries) {
+      if (k.Scalar() == key) return v;
+    }
+    return YAML::Node(YAML::NodeType::Undefined);
+  }
+
+ private:
+  std::string file_;
+  std::string text_;
+};
+
+bool Present(const YAML::Node& n) { return n.IsDefined(); }
+
+// ---------------------------------------------------------------------------------------------
+
+struct FileUnits {
+  double length = 1.0;  // factor of a bare number to metres
+  double angle = 1.0;   // factor of a bare number to radians
+  std::string length_name = "m", angle_name = "rad";
+};
+
+class Loader {
+ public:
+  Loader(const LoadOptions& options, std::vector<std::string>* include_stack)
+      : options_(options), stack_(include_stack) {}
+
+  ConstraintGraph Load(const std::string& display, const std::string& canonical,
+                       const std::string& text, const std::string& base_dir);
+
+ private:
+  double Quantity1(const Document& doc, const YAML::Node& node, Quantity q, const char* what) const;
+  Eigen::Vector3d Vector(const Document& doc, const YAML::Node& node, Quantity q,
+                         const char* what) const;
+  Rigid3d Pose(const Document& doc, const YAML::Node& node, const char* what) const;
+  void ReadUnits(const Document& doc, const YAML::Node& node);
+  void ReadIncludes(const Document& doc, const YAML::Node& node, const std::string& base_dir);
+  void ReadComponents(const Document& doc, const YAML::Node& node);
+  void ReadPoints(const Document& doc, const YAML::Node& node);
+  void ReadJoints(const Document& doc, const YAML::Node& node);
+  void ReadFixed(const Document& doc, const YAML::Node& node);
+  void ReadConstraints(const Document& doc, const YAML::Node& node);
+  int RequireComponent(const Document& doc, const YAML::Node& name_node, const char* role) const;
+
+  const LoadOptions& options_;
+  std::vector<std::string>* stack_;
+  std::unique_ptr<ModelBuilder> builder_;
+  FileUnits units_;
+};
+
+double Loader::Quantity1(const Document& doc, const YAML::Node& node, Quantity q,
+                         const char* what) const {
+  const std::string s = doc.Scalar(node, what);
+  // A bare number is in the file's units.
+  const char* begin = s.c_str();
+  char* end = nullptr;
+  errno = 0;
+  const double v = std::strtod(begin, &end);
+  if (end != begin && *end == '\0' && errno == 0) {
+    if (!std::isfinite(v)) doc.Fail(node, fmt::format("invalid {}: '{}' is not finite", what, s));
+    return v * (q == Quantity::Angle() ? units_.angle : units_.length);
+  }
+  const Lowerer lower(*builder_, doc.Origin(node));
+  return lower.LowerConstantScalar(s, q, what);
+}
+
+Eigen::Vector3d Loader::Vector(const Document& doc, const YAML::Node& node, Quantity q,
+                               const char* what) const {
+  if (!node.IsSequence() || node.size() != 3) {
+    doc.Fail(node, fmt::format("{} must be a list of 3 numbers [x, y, z]", what));
+  }
+  return {Quantity1(doc, node[0], q, what), Quantity1(doc, node[1], q, what),
+          Quantity1(doc, node[2], q, what)};
+}
+
+Rigid3d Loader::Pose(const Document& doc, const YAML::Node& node, const char* what) const {
+  const auto entries = doc.Entries(node, what, {"xyz", "rpy", "quaternion"});
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();
+  if (YAML::Node n = Document::Find(entries, "xyz"); Present(n)) {
+    xyz = Vector(doc, n, Quantity::Length(), "xyz");
+  }
+  const YAML::Node rpy = Document::Find(entries, "rpy");
+  const YAML::Node quat = Document::Find(entries, "quaternion");
+  if (Present(rpy) && Present(quat)) doc.Fail(quat, "give either rpy or quaternion, not both");
+  if (Present(quat)) {
+    if (!quat.IsSequence() || quat.size() != 4) {
+      doc.Fail(quat, "quaternion must be a list of 4 numbers [w, x, y, z]");
+    }
+    double q[4];
+    for (int i = 0; i < 4; ++i) q[i] = Quantity1(doc, quat[i], Quantity{}, "quaternion");
+    Eigen::Quaterniond qq(q[0], q[1], q[2], q[3]);
+    if (std::abs(qq.norm() - 1.0) > 1e-6) {
+      doc.Fail(quat, fmt::format("quaternion [w, x, y, z] must have unit norm, it has {:.6g}",
+                                 qq.norm()));
+    }
+    return Rigid3d(qq.normalized(), xyz);
+  }
+  Eigen::Vector3d angles = Eigen::Vector3d::Zero();
+  if (Present(rpy)) angles = Vector(doc, rpy, Quantity::Angle(), "rpy");
+  return Rigid3d::FromXyzRpy(xyz, angles);
+}
+
+void Loader::ReadUnits(const Document& doc, const YAML::Node& node) {
+  for (const auto& [key, value] : doc.Entries(node, "units", {"length", "angle"})) {
+    const std::string name = doc.Scalar(value, "a unit");
+    const Unit* u = FindUnit(name);
+    const bool length = key.Scalar() == "length";
+    if (!u) doc.Fail(value, fmt::format("unknown unit '{}' (units: {})", name, KnownUnits()));
+    if (!(u->quantity == (length ? Quantity::Length() : Quantity::Angle()))) {
+      doc.Fail(value, fmt::format("'{}' is not a unit of {}", name, length ? "length" : "angle"));
+    }
+    (length ? units_.length : units_.angle) = u->factor;
+    (length ? units_.length_name : units_.angle_name) = name;
+  }
+}
+
+void Loader::ReadIncludes(const Document& doc, const YAML::Node& node, const std::string& base_dir) {
+  std::vector<YAML::Node> items;
+  if (node.IsScalar()) {
+    items.push_back(node);
+  } else {
+    doc.RequireSequence(node, "include");
+    for (const YAML::Node& item : node) items.push_back(item);
+  }
+  for (const YAML::Node& item : items) {
+    YAML::Node file_node = item;
+    std::string prefix;
+    if (item.IsMap()) {
+      const auto entries = doc.Entries(item, "an include", {"file", "prefix"});
+      file_node = Document::Find(entries, "file");
+      if (!Present(file_node)) doc.Fail(item, "an include needs 'file'");
+      if (YAML::Node p = Document::Find(entries, "prefix"); Present(p)) {
+        prefix = doc.Scalar(p, "prefix");
+        if (!ModelBuilder::IsIdentifier(prefix)) {
+          doc.Fail(p, fmt::format("invalid prefix '{}': letters, digits and '_'", prefix));
+        }
+      }
+    }
+    const std::string relative = doc.Scalar(file_node, "an include's file");
+    if (relative.empty()) doc.Fail(file_node, "an include's file name is empty");
+    const SourceLocation where = doc.Loc(file_node);
+    const std::string display = (fs::path(base_dir) / relative).lexically_normal().string();
+    std::string ext = fs::path(relative).extension().string();
+    for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+
+    ConstraintGraph included;
+    if (ext == ".yaml" || ext == ".yml") {
+      if (static_cast<int>(stack_->size()) >= kMaxIncludeDepth) {
+        throw InputError(where, fmt::format("includes are nested more than {} deep", kMaxIncludeDepth));
+      }
+      std::error_code ec;
+      const std::string canonical = fs::weakly_canonical(display, ec).string();
+      for (const std::string& open : *stack_) {
+        if (open == canonical) {
+          std::string chain;
+          for (const std::string& s : *stack_) chain += s + " -> ";
+          throw InputError(where, fmt::format("include cycle: {}{}", chain, canonical));
+        }
+      }
+      const std::string text = ReadModelFile(display, where);
+      Loader child(options_, stack_);
+      included = child.Load(display, canonical, text, fs::path(display).parent_path().string());
+    } else {
+      const auto handler = options_.include_handlers.find(ext);
+      if (handler == options_.include_handlers.end()) {
+        throw InputError(where, fmt::format("cannot include '{}': no importer is registered for "
+                                            "'{}' files (model files are .yaml or .yml)",
+                                            relative, ext.empty() ? "extension-less" : ext));
+      }
+      if (!fs::exists(display)) {
+        throw InputError(where, fmt::format("cannot open '{}': no such file", display));
+      }
+      included = handler->second(display, where);
+    }
+    const int before = static_cast<int>(builder_->graph().components.size());
+    builder_->Merge(included, prefix, where);
+    (void)before;
+  }
+}
+
+void Loader::ReadComponents(const Document& doc, const YAML::Node& node) {
+  for (const auto& [key, value] : doc.Entries(node, "components", {})) {
+    const std::string name = key.Scalar();
+    const std::string what = fmt::format("component '{}'", name);
+    const auto entries = doc.Entries(value, what, {"pose", "points", "edges", "faces"});
+    ModelBuilder::RequireIdentifier(name, "component", doc.Loc(key));
+    std::optional<Rigid3d> pose;
+    if (YAML::Node n = Document::Find(entries, "pose"); Present(n)) pose = Pose(doc, n, "pose");
+    const int c = builder_->AddRigidComponent(name, pose, doc.Loc(key));
+
+    if (YAML::Node points = Document::Find(entries, "points"); Present(points)) {
+      for (const auto& [pk, pv] : doc.Entries(points, what + " points", {})) {
+        builder_->AddFeaturePoint(c, pk.Scalar(),
+                                  Vector(doc, pv, Quantity::Length(), "a point's coordinates"),
+                                  doc.Loc(pk));
+      }
+    }
+    auto point_index = [&](const YAML::Node& n) {
+      const std::string p = doc.Scalar(n, "a point name");
+      const int i = builder_->graph().components[c].FindPoint(p);
+      if (i < 0) {
+        std::vector<std::string> names;
+        for (const FeaturePoint& fp : builder_->graph().components[c].points) names.push_back(fp.name);
+        const std::string s = Suggest(p, names);
+        doc.Fail(n, fmt::format("component '{}' has no point '{}'{}", name, p,
+                                s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
+      }
+      return i;
+    };
+    if (YAML::Node edges = Document::Find(entries, "edges"); Present(edges)) {
+      for (const auto& [ek, ev] : doc.Entries(edges, what + " edges", {})) {
+        if (!ev.IsSequence() || ev.size() != 2) doc.Fail(ev, "an edge is a pair of points [a, b]");
+        builder_->AddEdge(c, ek.Scalar(), point_index(ev[0]), point_index(ev[1]), doc.Loc(ek));
+      }
+    }
+    if (YAML::Node faces = Document::Find(entries, "faces"); Present(faces)) {
+      for (const auto& [fk, fv] : doc.Entries(faces, what + " faces", {})) {
+        doc.RequireSequence(fv, "a face");
+        std::vector<int> loop;
+        for (const YAML::Node& p : fv) loop.push_back(point_index(p));
+        builder_->AddFace(c, fk.Scalar(), std::move(loop), doc.Loc(fk));
+      }
+    }
+  }
+}
+
+void Loader::ReadPoints(const Document& doc, const YAML::Node& node) {
+  for (const auto& [key, value] : doc.Entries(node, "points", {})) {
+    builder_->AddPointComponent(key.Scalar(),
+                                Vector(doc, value, Quantity::Length(), "a point's coordinates"),
+                                doc.Loc(key));
+  }
+}
+
+int Loader::RequireComponent(const Document& doc, const YAML::Node& name_node,
+                             const char* role) const {
+  const std::string name = doc.Scalar(name_node, role);
+  const int c = builder_->graph().FindComponent(name);
+  if (c < 0) {
+    std::vector<std::string> names;
+    for (const Component& comp : builder_->graph().components) names.push_back(comp.name);
+    const std::string s = Suggest(name, names);
+    doc.Fail(name_node, fmt::format("unknown component '{}'{}", name,
+                                    s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
+  }
+  return c;
+}
+
+void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
+  struct Pending {
+    JointSpec spec;
+    YAML::Node key;
+  };
+  std::vector<Pending> pending;
+  for (const auto& [key, value] : doc.Entries(node, "joints", {})) {
+    const std::string name = key.Scalar();
+    const std::string what = fmt::format("joint '{}'", name);
+    const auto entries =
+        doc.Entries(value, what, {"type", "parent", "child", "origin", "axis", "limits", "position"});
+    JointSpec spec;
+    spec.name = name;
+    spec.where = doc.Loc(key);
+    const YAML::Node type = Document::Find(entries, "type");
+    if (!Present(type)) doc.Fail(value, fmt::format("{} needs a 'type'", what));
+    const std::string type_name = doc.Scalar(type, "a joint type");
+    const std::optional<JointType> t = ParseJointType(type_name);
+    if (!t) {
+      doc.Fail(type, fmt::format("unknown joint type '{}'; the types are revolute, continuous, "
+                                 "prismatic, spherical, fixed",
+                                 type_name));
+    }
+    spec.type = *t;
+    for (const char* role : {"parent", "child"}) {
+      const YAML::Node n = Document::Find(entries, role);
+      if (!Present(n)) doc.Fail(value, fmt::format("{} needs a '{}' component", what, role));
+      (std::string(role) == "parent" ? spec.parent : spec.child) = RequireComponent(doc, n, role);
+    }
+    if (YAML::Node n = Document::Find(entries, "origin"); Present(n)) {
+      spec.parent_from_joint = Pose(doc, n, "origin");
+    }
+    const bool has_variable = HasJointVariable(spec.type);
+    const Quantity q = spec.type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+    const YAML::Node axis = Document::Find(entries, "axis");
+    if (has_variable) {
+      if (!Present(axis)) doc.Fail(value, fmt::format("{} ({}) needs an 'axis'", what, type_name));
+      spec.axis = Vector(doc, axis, Quantity{}, "axis");
+      if (!(spec.axis.norm() > 1e-9)) doc.Fail(axis, fmt::format("{}: the axis has zero length", what));
+    } else if (Present(axis)) {
+      doc.Fail(axis, fmt::format("a {} joint has no axis", type_name));
+    }
+    if (YAML::Node n = Document::Find(entries, "limits"); Present(n)) {
+      if (!has_variable || spec.type == JointType::kContinuous) {
+        doc.Fail(n, fmt::format("a {} joint has no limits{}", type_name,
+                                spec.type == JointType::kContinuous ? " (use revolute)" : ""));
+      }
+      if (!n.IsSequence() || n.size() != 2) doc.Fail(n, "limits must be a list [lower, upper]");
+      const double lo = Quantity1(doc, n[0], q, "lower limit");
+      const double hi = Quantity1(doc, n[1], q, "upper limit");
+      if (!(lo < hi)) doc.Fail(n, fmt::format("{}: the lower limit is not below the upper limit", what));
+      spec.limits = std::make_pair(lo, hi);
+    }
+    if (YAML::Node n = Document::Find(entries, "position"); Present(n)) {
+      if (!has_variable) doc.Fail(n, fmt::format("a {} joint has no position", type_name));
+      spec.position = Quantity1(doc, n, q, "joint position");
+    }
+    pending.push_back({spec, key});
+  }
+  // Parents first: a child's nominal pose may derive from its parent's.
+  std::vector<bool> done(pending.size(), false);
+  for (size_t added = 0; added < pending.size();) {
+    bool progress = false;
+    for (size_t i = 0; i < pending.size(); ++i) {
+      if (done[i]) continue;
+      bool parent_ready = true;
+      for (size_t j = 0; j < pending.size(); ++j) {
+        if (!done[j] && j != i && pending[j].spec.child == pending[i].spec.parent) parent_ready = false;
+      }
+      if (!parent_ready) continue;
+      builder_->AddJoint(pending[i].spec);
+      done[i] = true;
+      ++added;
+      progress = true;
+    }
+    if (!progress) {
+      for (size_t i = 0; i < pending.size(); ++i) {
+        if (!done[i]) {
+          doc.Fail(pending[i].key, fmt::format("joint '{}' is part of a cycle of joints",
+                                               pending[i].spec.name));
+        }
+      }
+    }
+  }
+}
+
+void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
+  doc.RequireSequence(node, "fixed");
+  for (const YAML::Node& item : node) {
+    if (item.IsScalar()) {
+      const int c = RequireComponent(doc, item, "a component");
+      const Component& comp = builder_->graph().components[c];
+      if (comp.rigid) {
+        builder_->FixComponent(c, true, true,
+                               builder_->graph().nominal.poses[builder_->graph().blocks[comp.block].index],
+                               doc.Loc(item));
+      } else {
+        const Eigen::Vector3d p = builder_->graph().nominal.points[builder_->graph().blocks[comp.block].index];
+        builder_->AddConstraint(builder_->UniqueConstraintName("fixed_" + comp.name), "fixed point",
+                                EqualityResidual::Create(MakePointRef(comp.block),
+                                                         MakeVectorConstant(p, Quantity::Length()),
+                                                         builder_->Context()),
+                                doc.Loc(item));
+      }
+      continue;
+    }
+    const auto entries = doc.Entries(item, "a fixed entry", {"component", "point", "fix", "at"});
+    const YAML::Node comp_node = Document::Find(entries, "component");
+    const YAML::Node point_node = Document::Find(entries, "point");
+    const YAML::Node at = Document::Find(entries, "at");
+    if (Present(comp_node) == Present(point_node)) {
+      doc.Fail(item, "a fixed entry names either a 'component' or a 'point'");
+    }
+    if (Present(point_node)) {
+      if (Present(Document::Find(entries, "fix"))) doc.Fail(item, "'fix' applies to components");
+      const std::string ref = doc.Scalar(point_node, "a point");
+      const Lowerer lower(*builder_, doc.Origin(point_node));
+      std::unique_ptr<AstNode> ast;
+      try {
+        ast = ParseExpression(ref);
+      } catch (const ExprSyntaxError& e) {
+        throw InputError(doc.Origin(point_node).At(e.offset()), e.what());
+      }
+      if (ast->kind != AstNode::Kind::kRef) doc.Fail(point_node, "'point' names a point, e.g. lid.c3");
+      const ExprPtr p = lower.Lower(*ast, nullptr);
+      Eigen::Vector3d target;
+      if (Present(at)) {
+        target = Vector(doc, at, Quantity::Length(), "at");
+      } else {
+        std::vector<ExprPtr> bound = {p};
+        const std::vector<int> blocks = BindSlots(&bound);
+        KindContext ctx = builder_->Context();
+        target = NominalValues(BoundArgs{bound, blocks, {}}, ctx)[0];
+      }
+      builder_->AddConstraint(builder_->UniqueConstraintName("fixed_" + ref), "fixed point",
+                              EqualityResidual::Create(p, MakeVectorConstant(target, Quantity::Length()),
+                                                       builder_->Context()),
+                              doc.Loc(item));
+      continue;
+    }
+    const int c = RequireComponent(doc, comp_node, "a component");
+    const Component& comp = builder_->graph().components[c];
+    if (!comp.rigid) {
+      doc.Fail(comp_node, fmt::format("'{}' is a single-point component: fix it with 'point: {}'",
+                                      comp.name, comp.name));
+    }
+    std::string fix = "pose";
+    if (YAML::Node f = Document::Find(entries, "fix"); Present(f)) {
+      fix = doc.Scalar(f, "fix");
+      if (fix != "pose" && fix != "position" && fix != "orientation") {
+        doc.Fail(f, fmt::format("unknown fix '{}': pose, position or orientation", fix));
+      }
+    }
+    Rigid3d target = builder_->graph().nominal.poses[builder_->graph().blocks[comp.block].index];
+    if (Present(at)) target = Pose(doc, at, "at");
+    builder_->FixComponent(c, fix != "orientation", fix != "position", target, doc.Loc(item));
+  }
+}
+
+void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
+  doc.RequireSequence(node, "constraints");
+  int index = 0;
+  for (const YAML::Node& item : node) {
+    ++index;
+    YAML::Node expr = item;
+    std::string name;
+    if (item.IsMap()) {
+      const auto entries = doc.Entries(item, "a constraint", {"name", "expr"});
+      expr = Document::Find(entries, "expr");
+      if (!Present(expr)) doc.Fail(item, "a constraint needs 'expr'");
+      if (YAML::Node n = Document::Find(entries, "name"); Present(n)) {
+        name = doc.Scalar(n, "a constraint name");
+        ModelBuilder::RequireIdentifier(name, "constraint", doc.Loc(n));
+      }
+    }
+    if (!expr.IsScalar()) {
+      doc.Fail(expr, "a constraint is an expression string, e.g. 'distance(a, b) == 30 mm'");
+    }
+    if (name.empty()) name = builder_->UniqueConstraintName(fmt::format("c{}", index));
+    const Lowerer lower(*builder_, doc.Origin(expr));
+    lower.AddConstraint(builder_.get(), expr.Scalar(), name);
+  }
+}
+
+ConstraintGraph Loader::Load(const std::string& display, const std::string& canonical,
+                             const std::string& text, const std::string& base_dir) {
+  CheckText(display, text);
+  const Document doc(display, text);
+  const YAML::Node root = doc.Parse();
+  if (!root.IsMap()) {
+    if (root.IsNull()) throw InputError(SourceLocation(display), "file is empty: a model needs components or points");
+    doc.Fail(root, "a model file is a mapping with keys such as components, points, joints, constraints");
+  }
+  const auto entries = doc.Entries(
+      root, "the model", {"name", "units", "include", "components", "points", "joints", "fixed", "constraints"});
+  std::string name = fs::path(display).stem().string();
+  if (YAML::Node n = Document::Find(entries, "name"); Present(n)) name = doc.Scalar(n, "name");
+  builder_ = std::make_unique<ModelBuilder>(name, display);
+  stack_->push_back(canonical);
+
+  if (YAML::Node n = Document::Find(entries, "units"); Present(n)) ReadUnits(doc, n);
+  if (YAML::Node n = Document::Find(entries, "include"); Present(n)) ReadIncludes(doc, n, base_dir);
+  if (YAML::Node n = Document::Find(entries, "components"); Present(n)) ReadComponents(doc, n);
+  if (YAML::Node n = Document::Find(entries, "points"); Present(n)) ReadPoints(doc, n);
+  if (YAML::Node n = Document::Find(entries, "joints"); Present(n)) ReadJoints(doc, n);
+  if (YAML::Node n = Document::Find(entries, "fixed"); Present(n)) ReadFixed(doc, n);
+  if (YAML::Node n = Document::Find(entries, "constraints"); Present(n)) ReadConstraints(doc, n);
+
+  if (builder_->graph().components.empty()) {
+    throw InputError(SourceLocation(display), "the model has no components or points");
+  }
+  stack_->pop_back();
+  return std::move(*builder_).Build();
+}
+
+}  // namespace
+
+ConstraintGraph LoadModel(const std::string& path, const LoadOptions& options) {
+  const std::string text = ReadModelFile(path, SourceLocation());
+  std::error_code ec;
+  const std::string canonical = fs::weakly_canonical(path, ec).string();
+  std::vector<std::string> stack;
+  Loader loader(options, &stack);
+  return loader.Load(path, canonical, text, fs::path(path).parent_path().string());
+}
+
+ConstraintGraph LoadModelFromString(std::string_view text, const std::string& display_name,
+                                    const std::string& base_directory, const LoadOptions& options) {
+  std::vector<std::string> stack;
+  Loader loader(options, &stack);
+  return loader.Load(display_name, display_name, std::string(text), base_directory);
+}
+
+}  // namespace cfuse::dsl

@@ -1,0 +1,123 @@
+// Rotations templated on the scalar, so that automatic differentiation (kernel/jet.h) passes
+// through them. Conventions, used everywhere in cfuse:
+//   - rotation matrices act on column vectors: x_in_a = a_R_b * x_in_b;
+//   - quaternions are stored [w, x, y, z] (Hamilton, w the real part);
+//   - roll-pitch-yaw as in URDF: R = Rz(yaw) * Ry(pitch) * Rx(roll).
+//
+// Exp maps a rotation vector w (axis * angle, radians) to SO(3) by Rodrigues' formula
+//   Exp(w) = I + sin(θ)/θ [w]x + (1 - cos θ)/θ² [w]x²,   θ = |w|,
+// switching to its Taylor series near θ = 0, where the closed form is 0/0 and where the
+// derivative at w = 0 (the one the estimator needs) would otherwise be undefined.
+#pragma once
+
+#include <Eigen/Core>
+#include <cmath>
+
+namespace cfuse {
+
+template <typename T>
+using Vector3 = Eigen::Matrix<T, 3, 1>;
+template <typename T>
+using Matrix3 = Eigen::Matrix<T, 3, 3>;
+template <typename T>
+using Vector4 = Eigen::Matrix<T, 4, 1>;
+
+template <typename T>
+Matrix3<T> Hat(const Vector3<T>& w) {
+  Matrix3<T> m;
+  m << T(0), -w.z(), w.y(),  //
+      w.z(), T(0), -w.x(),   //
+      -w.y(), w.x(), T(0);
+  return m;
+}
+
+template <typename T>
+Matrix3<T> ExpSO3(const Vector3<T>& w) {
+  using std::cos;
+  using std::sin;
+  using std::sqrt;
+  const T theta_sq = w.squaredNorm();
+  const Matrix3<T> W = Hat(w);
+  const Matrix3<T> I = Matrix3<T>::Identity();
+  if (theta_sq < T(1e-12)) {
+    // Second order is exact to double precision here and has the right first derivative at 0.
+    return I + W + T(0.5) * W * W;
+  }
+  const T theta = sqrt(theta_sq);
+  return I + (sin(theta) / theta) * W + ((T(1) - cos(theta)) / theta_sq) * W * W;
+}
+
+// Unit quaternion [w, x, y, z] of a rotation matrix (Shepperd's method: branch on the largest
+// of the trace and the diagonal, so that the square root is always of a number >= 1).
+template <typename T>
+Vector4<T> RotationToQuaternion(const Matrix3<T>& R) {
+  using std::sqrt;
+  const T trace = R(0, 0) + R(1, 1) + R(2, 2);
+  Vector4<T> q;
+  if (trace >= R(0, 0) && trace >= R(1, 1) && trace >= R(2, 2)) {
+    const T s = sqrt(T(1) + trace) * T(2);  // 4w
+    q << T(0.25) * s, (R(2, 1) - R(1, 2)) / s, (R(0, 2) - R(2, 0)) / s, (R(1, 0) - R(0, 1)) / s;
+  } else if (R(0, 0) >= R(1, 1) && R(0, 0) >= R(2, 2)) {
+    const T s = sqrt(T(1) + R(0, 0) - R(1, 1) - R(2, 2)) * T(2);  // 4x
+    q << (R(2, 1) - R(1, 2)) / s, T(0.25) * s, (R(0, 1) + R(1, 0)) / s, (R(0, 2) + R(2, 0)) / s;
+  } else if (R(1, 1) >= R(2, 2)) {
+    const T s = sqrt(T(1) + R(1, 1) - R(0, 0) - R(2, 2)) * T(2);  // 4y
+    q << (R(0, 2) - R(2, 0)) / s, (R(0, 1) + R(1, 0)) / s, T(0.25) * s, (R(1, 2) + R(2, 1)) / s;
+  } else {
+    const T s = sqrt(T(1) + R(2, 2) - R(0, 0) - R(1, 1)) * T(2);  // 4z
+    q << (R(1, 0) - R(0, 1)) / s, (R(0, 2) + R(2, 0)) / s, (R(1, 2) + R(2, 1)) / s, T(0.25) * s;
+  }
+  return q;
+}
+
+// A 3-vector that is zero exactly when R is the identity: twice the vector part of R's
+// quaternion taken with w >= 0, i.e. 2 sin(θ/2) * axis. Near the identity it equals the
+// rotation vector to first order, so residuals built on it are in radians. Unlike the skew
+// part of R (sin θ * axis) it has no spurious zero at θ = π.
+template <typename T>
+Vector3<T> RotationError(const Matrix3<T>& R) {
+  const Vector4<T> q = RotationToQuaternion(R);
+  const T sign = q[0] < T(0) ? T(-2) : T(2);
+  return sign * q.template tail<3>();
+}
+
+// R = Rz(yaw) Ry(pitch) Rx(roll), URDF's convention.
+template <typename T>
+Matrix3<T> RotationFromRpy(const T& roll, const T& pitch, const T& yaw) {
+  using std::cos;
+  using std::sin;
+  const T cr = cos(roll), sr = sin(roll), cp = cos(pitch), sp = sin(pitch), cy = cos(yaw),
+          sy = sin(yaw);
+  Matrix3<T> R;
+  R << cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr,  //
+      sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr,   //
+      -sp, cp * sr, cp * cr;
+  return R;
+}
+
+// Rotation by `angle` about the unit vector `axis`.
+template <typename T>
+Matrix3<T> RotationAboutAxis(const Vector3<T>& axis, const T& angle) {
+  return ExpSO3<T>(axis * angle);
+}
+
+// Two unit vectors completing the unit vector n to a right-handed orthonormal basis
+// (e1, e2, n). Branches on the smallest component of n for conditioning; only ever called on
+// constants or where the branch's own derivative does not matter (see the callers).
+template <typename T>
+void OrthonormalComplement(const Vector3<T>& n, Vector3<T>* e1, Vector3<T>* e2) {
+  using std::abs;
+  Vector3<T> helper = Vector3<T>::Zero();
+  const T ax = abs(n.x()), ay = abs(n.y()), az = abs(n.z());
+  if (ax <= ay && ax <= az) {
+    helper.x() = T(1);
+  } else if (ay <= az) {
+    helper.y() = T(1);
+  } else {
+    helper.z() = T(1);
+  }
+  *e1 = n.cross(helper).normalized();
+  *e2 = n.cross(*e1);
+}
+
+}  // namespace cfuse

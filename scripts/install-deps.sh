@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# Installs cfuse's build and test dependencies from Debian 12's packages.
+# Idempotent: apt-get skips what is already installed. Run as root (or with sudo).
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkgconf git ca-certificates
+  libeigen3-dev        # linear algebra, AutoDiff module (kernel, constraints)
+  libyaml-cpp-dev      # model DSL parser (dsl)
+  liburdfdom-dev       # URDF import (importers)
+  libopencv-dev        # cameras, PnP, images (vision, cli)
+  libcli11-dev         # command-line parsing (cli)
+  nlohmann-json3-dev   # measurement and result files (cli, io)
+  libfmt-dev           # message formatting (everywhere)
+  catch2               # unit tests (v2, with ctest integration)
+  libbenchmark-dev     # benchmarks (bench)
+  graphviz             # renders `cfuse graph` output in tests
+)
+
+SUDO=""
+if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi
+
+missing=()
+for p in "${packages[@]}"; do
+  dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed" || missing+=("$p")
+done
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}"
