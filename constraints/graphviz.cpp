@@ -4,6 +4,8 @@
 
 #include <fmt/format.h>
 
+#include "constraints/expr.h"
+
 namespace cfuse {
 namespace {
 
@@ -36,7 +38,7 @@ void WriteDot(const ConstraintGraph& graph, std::ostream& out) {
     const Component& c = graph.components[i];
     component_of_block[c.block] = static_cast<int>(i);
     const std::string label =
-        c.rigid ? fmt::format("{}\\n{} points", c.name, c.points.size()) : c.name;
+        c.rigid ? fmt::format("{}\n{} points", c.name, c.points.size()) : c.name;
     out << fmt::format("  c{} [label={}, shape={}];\n", i, Quote(label),
                        c.rigid ? "box" : "ellipse");
   }
@@ -44,9 +46,11 @@ void WriteDot(const ConstraintGraph& graph, std::ostream& out) {
   for (const Joint& j : graph.joints) {
     joint_constraints.insert(j.constraint);
     std::string label = fmt::format("{}\n{}", j.name, JointTypeName(j.type));
-    if (j.limit_constraint >= 0) {
-      joint_constraints.insert(j.limit_constraint);
-      label += "\n" + graph.Describe(graph.constraints[j.limit_constraint]);
+    if (j.limit_constraint >= 0) joint_constraints.insert(j.limit_constraint);
+    if (j.limits) {
+      const Quantity q = j.type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+      label += fmt::format("\nlimits [{}, {}]", FormatQuantity(j.limits->first, q),
+                           FormatQuantity(j.limits->second, q));
     }
     out << fmt::format("  c{} -- c{} [label={}, dir=forward, penwidth=2];\n", j.parent, j.child,
                        Quote(label));

@@ -327,10 +327,11 @@ class Parser {
                           "unexpected " + Describe(t) + " after the end of the expression");
   }
 
-  std::unique_ptr<AstNode> MakeBinary(std::unique_ptr<AstNode> lhs, char op,
+  std::unique_ptr<AstNode> MakeBinary(std::unique_ptr<AstNode> lhs, const Token& op,
                                       std::unique_ptr<AstNode> rhs) const {
     auto node = MakeNode(AstNode::Kind::kBinary, lhs->span.offset);
-    node->op = op;
+    node->op = op.text[0];
+    node->op_span = {op.offset, op.length};
     node->args.push_back(std::move(lhs));
     node->args.push_back(std::move(rhs));
     Finish(*node);
@@ -341,7 +342,7 @@ class Parser {
   std::unique_ptr<AstNode> ParseExpr() {
     std::unique_ptr<AstNode> lhs = ParseTerm();
     while (Peek().kind == Tok::kPlus || Peek().kind == Tok::kMinus) {
-      const char op = Next().text[0];
+      const Token& op = Next();
       lhs = MakeBinary(std::move(lhs), op, ParseTerm());
     }
     return lhs;
@@ -350,7 +351,7 @@ class Parser {
   std::unique_ptr<AstNode> ParseTerm() {
     std::unique_ptr<AstNode> lhs = ParseUnary();
     while (Peek().kind == Tok::kStar || Peek().kind == Tok::kSlash) {
-      const char op = Next().text[0];
+      const Token& op = Next();
       lhs = MakeBinary(std::move(lhs), op, ParseUnary());
     }
     return lhs;

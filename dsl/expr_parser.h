@@ -57,6 +57,7 @@ struct AstNode {
   std::string name;    // kRef: first identifier; kCall: function name.
   std::string member;  // kRef: identifier after '.', "" if none (e.g. "lid.c3").
   char op = 0;         // kUnary: '-'; kBinary: '+', '-', '*', '/'.
+  Span op_span;        // kBinary: where the operator is.
   // kVector: exactly 3 elements; kCall: the arguments (0 or more); kUnary: 1; kBinary: lhs, rhs.
   std::vector<std::unique_ptr<AstNode>> args;
 };

@@ -1,1 +1,94 @@
-// placeholder
+// The subcommands through their Run*() functions: outputs, exit statuses, no partial files.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "cli/commands.h"
+#include "test_util.h"
+
+namespace cfuse::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST_CASE("cli: check --json reports the designed DOF of every example", "[cli]") {
+  const std::vector<std::tuple<const char*, int, int, int>> examples = {
+      {"examples/lamp.yaml", 11, 6, 5},
+      {"examples/scissors.yaml", 7, 6, 1},
+      {"examples/hinged-box.yaml", 7, 6, 1},
+      {"examples/planar-arm.yaml", 3, 0, 3}};
+  for (const auto& [file, dof, rigid, internal] : examples) {
+    std::ostringstream out, err;
+    REQUIRE(RunCheck({testing::SourcePath(file), true}, out, err) == 0);
+    CHECK(err.str().empty());
+    const nlohmann::json j = nlohmann::json::parse(out.str());
+    CHECK(j["dof"]["total"] == dof);
+    CHECK(j["dof"]["rigid_body"] == rigid);
+    CHECK(j["dof"]["internal"] == internal);
+    CHECK(j["violations"].empty());
+  }
+}
+
+TEST_CASE("cli: check prints the summary and warns about violated constraints", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const fs::path model = dir / "violated.yaml";
+  std::ofstream(model) << "points: {a: [0, 0, 0], b: [1, 0, 0]}\nconstraints:\n"
+                          "  - name: too_long\n    expr: distance(a, b) == 2 m\n";
+  std::ostringstream out, err;
+  REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
+  CHECK(out.str().find("DOF: 5 (5 rigid-body + 0 internal)") != std::string::npos);
+  CHECK(out.str().find(model.string() + ":4:11: warning: constraint 'too_long' "
+                       "(distance(a, b) == 2 m) is violated by the nominal geometry") !=
+        std::string::npos);
+}
+
+TEST_CASE("cli: bad input exits with status 2 and one located message", "[cli]") {
+  std::ostringstream out, err;
+  CHECK(RunCheck({"no/such/model.yaml", false}, out, err) == 2);
+  CHECK(err.str() == "no/such/model.yaml: error: cannot open: no such file\n");
+  CHECK(out.str().empty());
+  std::ostringstream out2, err2;
+  CHECK(RunCheck({testing::SourcePath("README.md"), false}, out2, err2) == 2);
+  CHECK(err2.str().find("unsupported model format '.md'") != std::string::npos);
+}
+
+TEST_CASE("cli: graph writes dot, atomically", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const fs::path dot = dir / "box.dot";
+  fs::remove(dot);
+  std::ostringstream out, err;
+  REQUIRE(RunGraph({testing::SourcePath("examples/hinged-box.yaml"), dot.string()}, out, err) == 0);
+  std::ifstream in(dot);
+  std::stringstream content;
+  content << in.rdbuf();
+  CHECK(content.str().rfind("graph \"hinged file box\" {", 0) == 0);
+  CHECK(content.str().find("hinge\\nrevolute") != std::string::npos);
+  // No stray temporary files.
+  int files = 0;
+  for (const auto& entry : fs::directory_iterator(dir)) files += entry.path().filename().string()[0] == '.';
+  CHECK(files == 0);
+
+  // A model error writes nothing; a missing directory is refused.
+  const fs::path bad = dir / "bad.dot";
+  fs::remove(bad);
+  std::ostringstream out2, err2;
+  CHECK(RunGraph({"missing.yaml", bad.string()}, out2, err2) == 2);
+  CHECK(!fs::exists(bad));
+  std::ostringstream out3, err3;
+  CHECK(RunGraph({testing::SourcePath("examples/lamp.yaml"), (dir / "nope" / "x.dot").string()}, out3, err3) == 2);
+  CHECK(err3.str().find("directory") != std::string::npos);
+}
+
+TEST_CASE("cli: demo checks the built-in lamp", "[cli]") {
+  std::ostringstream out, err;
+  CHECK(RunDemo(out, err) == 0);
+  CHECK(out.str().find("DOF: 11 (6 rigid-body + 5 internal)") != std::string::npos);
+  CHECK(err.str().empty());
+}
+
+}  // namespace
+}  // namespace cfuse::cli
