@@ -114,7 +114,7 @@ int RunDemo(std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     out << "cfuse demo: the desk lamp of Hel-Or & Werman (1994), built in\n\n";
     const ConstraintGraph graph =
-        dsl::LoadModelFromString(kEmbeddedLampYaml, "lamp.yaml (built in)", ".");
+        dsl::LoadModelFromString(kEmbeddedLampYaml, "built-in examples/lamp.yaml", ".");
     const ModelSummary summary = Summarize(graph);
     PrintSummary(graph, summary, out);
     out << "\nThe lamp's 23 points are single-point components (69 state variables); its\n"

@@ -580,6 +580,21 @@ void Print(const AstNode& node, std::string& out) {
 
 }  // namespace
 
+std::string SyntaxMessageInFile(const ExprSyntaxError& e, int line, int column, bool exact) {
+  std::string message = e.what();
+  constexpr std::string_view kAt = "at column ";
+  const size_t at = message.find(kAt);
+  if (at == std::string::npos) return message;
+  size_t end = at + kAt.size();
+  int n = 0;
+  while (end < message.size() && IsDigit(message[end])) n = n * 10 + (message[end++] - '0');
+  if (end == at + kAt.size()) return message;
+  const std::string where = exact ? "at line " + std::to_string(line) + ", column " +
+                                        std::to_string(column + n - 1)
+                                  : "at column " + std::to_string(n) + " of the expression";
+  return message.replace(at, end - at, where);
+}
+
 AstConstraint ParseConstraint(std::string_view text) { return Parser(text).ParseConstraint(); }
 
 std::unique_ptr<AstNode> ParseExpression(std::string_view text) {

@@ -85,6 +85,11 @@ class ExprSyntaxError : public std::runtime_error {
   int offset_;
 };
 
+// e.what() for a message about a text whose byte 0 is at (line, column) of a file: a column of
+// the text that the message names (e.g. "to close '(' at column 9") becomes the file's "line L,
+// column C" when `exact` (the text appears verbatim there), else "column 9 of the expression".
+std::string SyntaxMessageInFile(const ExprSyntaxError& e, int line, int column, bool exact);
+
 // Parses a whole constraint string.
 AstConstraint ParseConstraint(std::string_view text);
 

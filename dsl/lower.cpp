@@ -244,7 +244,7 @@ ExprPtr Lowerer::Lower(const AstNode& node, const ExprPtr& nominal) const {
         UnifyZero(&b, a);
       }
       ExprPtr e = MakeBinary(op, a, b, &why);
-      if (!e) Fail(node.span, why);
+      if (!e) Fail(node.op_span, why);
       return e;
     }
   }
@@ -257,7 +257,9 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
   try {
     ast = ParseConstraint(text);
   } catch (const ExprSyntaxError& e) {
-    throw InputError(origin_.At(e.offset()), fmt::format("syntax error in constraint: {}", e.what()));
+    throw InputError(origin_.At(e.offset()),
+                     fmt::format("syntax error in constraint: {}",
+                                 SyntaxMessageInFile(e, origin_.line, origin_.column, origin_.exact)));
   }
   const SourceLocation where = origin_.At(0);
   const ConstraintGraph& g = builder_.graph();
@@ -311,14 +313,23 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
   std::string kind_prefix = "expression";
   if (ast.lhs->kind == AstNode::Kind::kCall) kind_prefix = ast.lhs->name;
 
-  auto require_same_type = [&](const ExprPtr& r, const Span& span, const char* what) {
+  auto require_same_type = [&](const ExprPtr& r, const AstNode& node, const char* what) {
+    const Span& span = node.span;
     if (r->type.vector != lhs->type.vector) {
       Fail(span, fmt::format("{} is a {} but the left-hand side is a {}", what,
                              r->type.vector ? "vector" : "scalar", lhs->type.vector ? "vector" : "scalar"));
     }
     if (!(r->type.quantity == lhs->type.quantity)) {
-      Fail(span, fmt::format("unit mismatch: the left-hand side is in [{}] but {} is in [{}]",
-                             lhs->type.quantity.ToString(), what, r->type.quantity.ToString()));
+      // A plain number where a length or an angle is due: say how to write one.
+      std::string hint;
+      const bool plain = (node.kind == AstNode::Kind::kNumber || node.kind == AstNode::Kind::kVector) &&
+                         node.unit.empty() && r->type.quantity == Quantity{};
+      if (plain && (lhs->type.quantity == Quantity::Length() || lhs->type.quantity == Quantity::Angle())) {
+        hint = fmt::format("; a number without a unit is dimensionless, write e.g. '{} {}'",
+                           ToString(node), lhs->type.quantity == Quantity::Length() ? "m" : "deg");
+      }
+      Fail(span, fmt::format("unit mismatch: the left-hand side is in [{}] but {} is in [{}]{}",
+                             lhs->type.quantity.ToString(), what, r->type.quantity.ToString(), hint));
     }
   };
 
@@ -327,7 +338,7 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
       case AstConstraint::Relation::kEqual: {
         ExprPtr rhs = Lower(*ast.rhs, nominal);
         UnifyZero(&rhs, lhs);
-        require_same_type(rhs, ast.rhs->span, "the right-hand side");
+        require_same_type(rhs, *ast.rhs, "the right-hand side");
         builder->AddConstraint(name, kind_prefix + " ==",
                                EqualityResidual::Create(lhs, rhs, builder->Context()), where);
         return;
@@ -338,7 +349,7 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
         if (lhs->type.vector) Fail(ast.relation_span, "an inequality compares scalars, not vectors");
         ExprPtr rhs = Lower(*ast.rhs, nominal);
         UnifyZero(&rhs, lhs);
-        require_same_type(rhs, ast.rhs->span, "the right-hand side");
+        require_same_type(rhs, *ast.rhs, "the right-hand side");
         const int slack = builder->AddSlack(name);
         double slack0 = 0;
         ConstraintParts parts = InequalityResidual::Create(lhs, rhs, greater, builder->Context(slack), &slack0);
@@ -351,8 +362,8 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
         ExprPtr lo = Lower(*ast.lo, nominal), hi = Lower(*ast.hi, nominal);
         UnifyZero(&lo, lhs);
         UnifyZero(&hi, lhs);
-        require_same_type(lo, ast.lo->span, "the lower bound");
-        require_same_type(hi, ast.hi->span, "the upper bound");
+        require_same_type(lo, *ast.lo, "the lower bound");
+        require_same_type(hi, *ast.hi, "the upper bound");
         if (!IsConstant(*lo)) Fail(ast.lo->span, "the bounds of a range must be constants");
         if (!IsConstant(*hi)) Fail(ast.hi->span, "the bounds of a range must be constants");
         if (!(lo->constant.x() < hi->constant.x())) {
@@ -382,12 +393,29 @@ double Lowerer::LowerConstantScalar(std::string_view text, Quantity expected, co
   try {
     ast = ParseExpression(text);
   } catch (const ExprSyntaxError& e) {
-    throw InputError(origin_.At(e.offset()), fmt::format("invalid {}: {}", what, e.what()));
+    throw InputError(origin_.At(e.offset()),
+                     fmt::format("invalid {}: {}", what,
+                                 SyntaxMessageInFile(e, origin_.line, origin_.column, origin_.exact)));
+  }
+  const std::string expectation =
+      expected == Quantity::Angle()    ? "a number with a unit, e.g. '90 deg'"
+      : expected == Quantity::Length() ? "a number with a unit, e.g. '12 mm'"
+                                       : "a number";
+  // A name here is not a constant: say so rather than "unknown point".
+  std::vector<const AstNode*> todo = {ast.get()};
+  while (!todo.empty()) {
+    const AstNode* n = todo.back();
+    todo.pop_back();
+    if (n->kind == AstNode::Kind::kRef || n->kind == AstNode::Kind::kCall ||
+        n->kind == AstNode::Kind::kNominal) {
+      Fail(n->span, fmt::format("invalid {}: expected {}, found '{}'", what, expectation,
+                                ToString(*n)));
+    }
+    for (const auto& a : n->args) todo.push_back(a.get());
   }
   const ExprPtr e = Lower(*ast, nullptr);
   if (!IsConstant(*e) || e->type.vector) {
-    Fail(ast->span, fmt::format("invalid {}: expected a number with a unit, e.g. {}", what,
-                                expected == Quantity::Angle() ? "'90 deg'" : "'12 mm'"));
+    Fail(ast->span, fmt::format("invalid {}: expected {}", what, expectation));
   }
   if (!(e->type.quantity == expected)) {
     Fail(ast->span, fmt::format("invalid {}: expected [{}], got [{}]", what, expected.ToString(),

@@ -1,5 +1,6 @@
 #include "dsl/model_loader.h"
 
+#include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
 #include <cerrno>
@@ -70,12 +71,21 @@ void CheckText(const std::string& file, std::string_view text) {
                      fmt::format("is a binary file, not a YAML model (NUL byte at offset {})", nul));
   }
   // UTF-8 validation: YAML text must be UTF-8.
+  // Strict (RFC 3629): no overlong forms, surrogates or code points above U+10FFFF, which
+  // would otherwise pass into names and messages.
   for (size_t i = 0; i < text.size();) {
     const unsigned char c = static_cast<unsigned char>(text[i]);
-    int extra = c < 0x80 ? 0 : (c >> 5) == 0x6 ? 1 : (c >> 4) == 0xE ? 2 : (c >> 3) == 0x1E ? 3 : -1;
-    bool ok = extra >= 0 && i + extra < text.size() + (extra == 0 ? 1 : 0);
+    const int extra = c < 0x80 ? 0 : c < 0xC2 ? -1 : c < 0xE0 ? 1 : c < 0xF0 ? 2 : c < 0xF5 ? 3 : -1;
+    // The range of the second byte; the later ones are 0x80..0xBF.
+    unsigned char lo = 0x80, hi = 0xBF;
+    if (c == 0xE0) lo = 0xA0;
+    if (c == 0xED) hi = 0x9F;
+    if (c == 0xF0) lo = 0x90;
+    if (c == 0xF4) hi = 0x8F;
+    bool ok = extra >= 0;
     for (int k = 1; ok && k <= extra; ++k) {
-      ok = i + k < text.size() && (static_cast<unsigned char>(text[i + k]) >> 6) == 0x2;
+      const unsigned char b = i + k < text.size() ? static_cast<unsigned char>(text[i + k]) : 0;
+      ok = k == 1 ? (b >= lo && b <= hi) : (b >= 0x80 && b <= 0xBF);
     }
     if (!ok) {
       throw InputError(LocationOfOffset(file, text, i),
@@ -102,12 +112,26 @@ class Document {
   const std::string& file() const { return file_; }
 
   YAML::Node Parse() const {
+    std::vector<YAML::Node> documents;
     try {
-      return YAML::Load(text_);
+      documents = YAML::LoadAll(text_);
+    } catch (const YAML::DeepRecursion& e) {
+      // yaml-cpp's own message for this is "bad file".
+      throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
+                       fmt::format("YAML syntax error: nested more than {} levels deep",
+                                   e.depth() - 1));
     } catch (const YAML::ParserException& e) {
       throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
                        fmt::format("YAML syntax error: {}", e.msg));
     }
+    // A second document after '---' would otherwise be dropped without a word.
+    for (size_t i = 1; i < documents.size(); ++i) {
+      if (!documents[i].IsNull()) {
+        Fail(documents[i], "a model file holds one YAML document, this is a second one (after "
+                           "'---'); split it into files and use include");
+      }
+    }
+    return documents.empty() ? YAML::Node(YAML::NodeType::Null) : documents[0];
   }
 
   SourceLocation Loc(const YAML::Node& node) const {
@@ -450,7 +474,27 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
     for (const char* role : {"parent", "child"}) {
       const YAML::Node n = Document::Find(entries, role);
       if (!Present(n)) doc.Fail(value, fmt::format("{} needs a '{}' component", what, role));
-      (std::string(role) == "parent" ? spec.parent : spec.child) = RequireComponent(doc, n, role);
+      const int c = RequireComponent(doc, n, role);
+      // Refused here, at the component's name; ModelBuilder::AddJoint checks the same.
+      const Component& comp = builder_->graph().components[c];
+      if (!comp.rigid) {
+        doc.Fail(n, fmt::format("{}: '{}' is a single-point component; joints connect rigid "
+                                "components",
+                                what, comp.name));
+      }
+      if (std::string(role) == "parent") {
+        spec.parent = c;
+        continue;
+      }
+      if (c == spec.parent) doc.Fail(n, fmt::format("{} connects '{}' to itself", what, comp.name));
+      for (const Pending& p : pending) {
+        if (p.spec.child == c) {
+          doc.Fail(n, fmt::format("{}: component '{}' is already the child of joint '{}' (at {}); "
+                                  "close a kinematic loop with a constraint instead",
+                                  what, comp.name, p.spec.name, p.spec.where.ToString()));
+        }
+      }
+      spec.child = c;
     }
     if (YAML::Node n = Document::Find(entries, "origin"); Present(n)) {
       spec.parent_from_joint = Pose(doc, n, "origin");
@@ -544,7 +588,8 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
       try {
         ast = ParseExpression(ref);
       } catch (const ExprSyntaxError& e) {
-        throw InputError(doc.Origin(point_node).At(e.offset()), e.what());
+        const TextOrigin o = doc.Origin(point_node);
+        throw InputError(o.At(e.offset()), SyntaxMessageInFile(e, o.line, o.column, o.exact));
       }
       if (ast->kind != AstNode::Kind::kRef) doc.Fail(point_node, "'point' names a point, e.g. lid.c3");
       const ExprPtr p = lower.Lower(*ast, nullptr);
@@ -596,6 +641,12 @@ void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
       if (YAML::Node n = Document::Find(entries, "name"); Present(n)) {
         name = doc.Scalar(n, "a constraint name");
         ModelBuilder::RequireIdentifier(name, "constraint", doc.Loc(n));
+        // Refused here, at the name, rather than where the constraint's expression is.
+        if (const int k = builder_->graph().FindConstraint(name); k >= 0) {
+          const SourceLocation& first = builder_->graph().constraints[k].where;
+          doc.Fail(n, fmt::format("duplicate constraint name '{}', first defined{}", name,
+                                  first.known() ? " (at " + first.ToString() + ")" : ""));
+        }
       }
     }
     if (!expr.IsScalar()) {
@@ -610,7 +661,9 @@ void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
 ConstraintGraph Loader::Load(const std::string& display, const std::string& canonical,
                              const std::string& text, const std::string& base_dir) {
   CheckText(display, text);
-  const Document doc(display, text);
+  // Without a byte-order mark, yaml-cpp's offsets index the text (see Document::Origin).
+  const bool bom = text.compare(0, 3, "\xEF\xBB\xBF") == 0;
+  const Document doc(display, bom ? text.substr(3) : text);
   const YAML::Node root = doc.Parse();
   if (!root.IsMap()) {
     if (root.IsNull()) throw InputError(SourceLocation(display), "file is empty: a model needs components or points");
