@@ -1,14 +1,13 @@
 #include "cli/commands.h"
 
+#include <fmt/format.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
 #include <sstream>
-
-#include <unistd.h>
-
-#include <fmt/format.h>
 
 #include "cli/summary.h"
 #include "constraints/graphviz.h"
@@ -58,8 +57,8 @@ void WriteFileAtomically(const std::string& path, const std::string& content) {
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
-    throw InputError(SourceLocation(path), fmt::format("cannot write: directory '{}' does not exist",
-                                                       dir.string()));
+    throw InputError(SourceLocation(path),
+                     fmt::format("cannot write: directory '{}' does not exist", dir.string()));
   }
   if (fs::is_directory(target, ec)) {
     throw InputError(SourceLocation(path), "cannot write: it is a directory");

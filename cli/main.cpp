@@ -10,7 +10,8 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", "cfuse 0.1.0");
 
   cfuse::cli::CheckOptions check;
-  CLI::App* check_cmd = app.add_subcommand("check", "Validate a model and summarise it, with its DOF");
+  CLI::App* check_cmd =
+      app.add_subcommand("check", "Validate a model and summarise it, with its DOF");
   check_cmd->add_option("MODEL", check.model, "Model file (.yaml)")->required();
   check_cmd->add_flag("--json", check.json, "Print the summary as JSON");
 

@@ -1,9 +1,10 @@
 #include "cli/summary.h"
 
+#include <fmt/format.h>
+
+#include <Eigen/SVD>
 #include <cmath>
 #include <ostream>
-
-#include <fmt/format.h>
 
 #include "constraints/evaluate.h"
 
@@ -27,11 +28,30 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
       s.violations.push_back({c.name, graph.Describe(c), worst, c.where});
     }
   }
+  // Faces must be planar polygons for visibility to mean anything.
+  for (const Component& c : graph.components) {
+    for (const Face& f : c.faces) {
+      Eigen::MatrixXd P(3, f.loop.size());
+      for (size_t i = 0; i < f.loop.size(); ++i) P.col(i) = c.points[f.loop[i]].position;
+      const Eigen::Vector3d centre = P.rowwise().mean();
+      P.colwise() -= centre;
+      Eigen::JacobiSVD<Eigen::MatrixXd> svd(P, Eigen::ComputeFullU);
+      const Eigen::Vector3d normal = svd.matrixU().col(2);
+      const double off = (normal.transpose() * P).cwiseAbs().maxCoeff();
+      const double extent = P.colwise().norm().maxCoeff();
+      if (off > 1e-6 * extent) {
+        s.warnings.emplace_back(f.where, fmt::format("face '{}' of '{}' is not planar: a point is "
+                                                     "{:.3g} m off its best-fit plane",
+                                                     f.name, c.name, off));
+      }
+    }
+  }
   for (const Joint& j : graph.joints) {
     if (j.limits && j.limit_constraint < 0) {
-      s.notes.push_back(fmt::format("joint '{}': its limits span a full turn or more, so they do "
-                                    "not restrict it",
-                                    j.name));
+      s.notes.push_back(
+          fmt::format("joint '{}': its limits span a full turn or more, so they do "
+                      "not restrict it",
+                      j.name));
     }
   }
   s.dof = AnalyzeDof(graph, graph.nominal);
@@ -66,10 +86,18 @@ void PrintSummary(const ConstraintGraph& graph, const ModelSummary& s, std::ostr
                        c.residual->dimension() == 1 ? "" : "s");
   }
   for (const std::string& note : s.notes) out << "note: " << note << "\n";
+  for (const auto& [where, message] : s.warnings) {
+    out << fmt::format("{}: warning: {}\n", where.ToString(), message);
+  }
+  if (!s.violations.empty()) {
+    out << "note: the nominal geometry violates constraints (below), so the DOF above were "
+           "computed away from the model's constraint surface and may be wrong\n";
+  }
   for (const Violation& v : s.violations) {
-    out << fmt::format("{}: warning: constraint '{}' ({}) is violated by the nominal geometry "
-                       "(largest residual {:.3g})\n",
-                       v.where.ToString(), v.constraint, v.formula, v.residual);
+    out << fmt::format(
+        "{}: warning: constraint '{}' ({}) is violated by the nominal geometry "
+        "(largest residual {:.3g})\n",
+        v.where.ToString(), v.constraint, v.formula, v.residual);
   }
 }
 
@@ -94,13 +122,18 @@ nlohmann::json SummaryJson(const ConstraintGraph& graph, const ModelSummary& s) 
   j["rank"] = s.dof.rank;
   j["dof"] = {{"total", s.dof.dof}, {"rigid_body", s.dof.rigid_body}, {"internal", s.dof.internal}};
   j["redundant"] = nlohmann::json::array();
-  for (const auto& [name, rows] : s.dof.redundant) j["redundant"].push_back({{"constraint", name}, {"rows", rows}});
+  for (const auto& [name, rows] : s.dof.redundant)
+    j["redundant"].push_back({{"constraint", name}, {"rows", rows}});
   j["violations"] = nlohmann::json::array();
   for (const Violation& v : s.violations) {
     j["violations"].push_back({{"constraint", v.constraint},
                                {"formula", v.formula},
                                {"residual", v.residual},
                                {"where", v.where.ToString()}});
+  }
+  j["warnings"] = nlohmann::json::array();
+  for (const auto& [where, message] : s.warnings) {
+    j["warnings"].push_back({{"where", where.ToString()}, {"message", message}});
   }
   j["notes"] = s.notes;
   return j;

@@ -25,6 +25,7 @@ struct ModelSummary {
   int slacks = 0;
   DofReport dof;
   std::vector<Violation> violations;
+  std::vector<std::pair<SourceLocation, std::string>> warnings;  // other problems, located
   std::vector<std::string> notes;
 };
 

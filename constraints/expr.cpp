@@ -1,9 +1,9 @@
 #include "constraints/expr.h"
 
+#include <fmt/format.h>
+
 #include <cmath>
 #include <functional>
-
-#include <fmt/format.h>
 
 #include "kernel/check.h"
 
@@ -96,8 +96,9 @@ ExprPtr MakeVector(std::vector<ExprPtr> scalars, std::string* why) {
       return nullptr;
     }
     if (!(scalars[i]->type.quantity == scalars[0]->type.quantity)) {
-      *why = fmt::format("the elements of a vector literal must have the same unit, got [{}] and [{}]",
-                         scalars[0]->type.quantity.ToString(), scalars[i]->type.quantity.ToString());
+      *why =
+          fmt::format("the elements of a vector literal must have the same unit, got [{}] and [{}]",
+                      scalars[0]->type.quantity.ToString(), scalars[i]->type.quantity.ToString());
       return nullptr;
     }
   }
@@ -187,7 +188,8 @@ std::string Describe(const Expr& e, std::span<const std::string> names) {
   auto child = [&](const ExprPtr& a, bool right_operand) {
     std::string s = Describe(*a, names);
     const int pa = Precedence(*a), pe = Precedence(e);
-    if (pa < pe || (right_operand && pa == pe && (e.op == Expr::Op::kSub || e.op == Expr::Op::kDiv)))
+    if (pa < pe ||
+        (right_operand && pa == pe && (e.op == Expr::Op::kSub || e.op == Expr::Op::kDiv)))
       return "(" + s + ")";
     return s;
   };
@@ -207,7 +209,8 @@ std::string Describe(const Expr& e, std::span<const std::string> names) {
     case Expr::Op::kPoint:
       return e.slot < static_cast<int>(names.size()) ? names[e.slot] : fmt::format("#{}", e.slot);
     case Expr::Op::kFeature:
-      return (e.slot < static_cast<int>(names.size()) ? names[e.slot] : fmt::format("#{}", e.slot)) +
+      return (e.slot < static_cast<int>(names.size()) ? names[e.slot]
+                                                      : fmt::format("#{}", e.slot)) +
              "." + e.name;
     case Expr::Op::kVector:
       return fmt::format("[{}, {}, {}]", Describe(*e.args[0], names), Describe(*e.args[1], names),

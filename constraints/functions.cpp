@@ -1,8 +1,8 @@
 #include "constraints/functions.h"
 
-#include <array>
-
 #include <fmt/format.h>
+
+#include <array>
 
 #include "kernel/check.h"
 
@@ -65,8 +65,8 @@ std::optional<ExprType> FunctionResultType(Function f, std::span<const ExprType>
   }
   for (size_t i = 0; i < args.size(); ++i) {
     if (!args[i].vector) {
-      *why = fmt::format("argument {} of {} must be a point or vector, got a {} (usage: {})",
-                         i + 1, info.name, args[i].ToString(), info.signature);
+      *why = fmt::format("argument {} of {} must be a point or vector, got a {} (usage: {})", i + 1,
+                         info.name, args[i].ToString(), info.signature);
       return std::nullopt;
     }
   }

@@ -61,9 +61,7 @@ static int FindByName(const Items& items, std::string_view name) {
 
 int ConstraintGraph::FindComponent(std::string_view n) const { return FindByName(components, n); }
 int ConstraintGraph::FindJoint(std::string_view n) const { return FindByName(joints, n); }
-int ConstraintGraph::FindConstraint(std::string_view n) const {
-  return FindByName(constraints, n);
-}
+int ConstraintGraph::FindConstraint(std::string_view n) const { return FindByName(constraints, n); }
 
 std::vector<std::string> ConstraintGraph::SlotNames(const Constraint& c) const {
   std::vector<std::string> names;

@@ -95,8 +95,8 @@ struct Constraint {
 };
 
 struct ConstraintGraph {
-  std::string name;         // the model's name
-  std::string source;       // the file it came from
+  std::string name;    // the model's name
+  std::string source;  // the file it came from
   std::vector<Block> blocks;
   std::vector<Component> components;
   std::vector<Joint> joints;
@@ -104,7 +104,7 @@ struct ConstraintGraph {
   Values nominal;
 
   int tangent_dim() const;
-  int num_equations() const;  // sum of the constraints' dimensions
+  int num_equations() const;                       // sum of the constraints' dimensions
   int FindComponent(std::string_view name) const;  // -1 if absent
   int FindJoint(std::string_view name) const;
   int FindConstraint(std::string_view name) const;

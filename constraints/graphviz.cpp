@@ -1,8 +1,8 @@
 #include "constraints/graphviz.h"
 
-#include <set>
-
 #include <fmt/format.h>
+
+#include <set>
 
 #include "constraints/expr.h"
 
@@ -28,8 +28,8 @@ std::string Quote(const std::string& s) {
 void WriteDot(const ConstraintGraph& graph, std::ostream& out) {
   out << "graph " << Quote(graph.name.empty() ? "model" : graph.name) << " {\n";
   out << "  graph [overlap=false, fontname=\"Helvetica\", label="
-      << Quote(fmt::format("{}: {} components, {} constraints", graph.name,
-                           graph.components.size(), graph.constraints.size()))
+      << Quote(fmt::format("{}: {} components, {} constraints", graph.name, graph.components.size(),
+                           graph.constraints.size()))
       << "];\n";
   out << "  node [fontname=\"Helvetica\", fontsize=11];\n  edge [fontname=\"Helvetica\", "
          "fontsize=9];\n";
@@ -58,9 +58,10 @@ void WriteDot(const ConstraintGraph& graph, std::ostream& out) {
   for (size_t k = 0; k < graph.constraints.size(); ++k) {
     if (joint_constraints.count(static_cast<int>(k))) continue;
     const Constraint& c = graph.constraints[k];
-    out << fmt::format("  k{} [label={}, shape=note, fontsize=9, style=filled, "
-                       "fillcolor=\"#f3f3f3\"];\n",
-                       k, Quote(c.name + "\n" + graph.Describe(c)));
+    out << fmt::format(
+        "  k{} [label={}, shape=note, fontsize=9, style=filled, "
+        "fillcolor=\"#f3f3f3\"];\n",
+        k, Quote(c.name + "\n" + graph.Describe(c)));
     std::set<int> touched;
     for (int b : c.blocks) {
       if (component_of_block[b] >= 0) touched.insert(component_of_block[b]);

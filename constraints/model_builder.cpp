@@ -1,9 +1,9 @@
 #include "constraints/model_builder.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <cmath>
-
-#include <fmt/format.h>
 
 #include "constraints/evaluate.h"
 #include "constraints/kinds/fix_pose.h"
@@ -53,6 +53,10 @@ void ModelBuilder::RequireIdentifier(const std::string& name, const char* what,
     throw InputError(where, fmt::format("invalid {} name '{}': names are letters, digits and '_', "
                                         "not starting with a digit",
                                         what, name));
+  }
+  // The expression language's keywords could never be referenced.
+  if (name == "in" || name == "nominal") {
+    throw InputError(where, fmt::format("invalid {} name '{}': it is a reserved word", what, name));
   }
 }
 
@@ -181,14 +185,14 @@ void ModelBuilder::AddFace(int component, const std::string& name, std::vector<i
     }
   }
   if (loop.size() < 3) {
-    throw InputError(where, fmt::format("face '{}' has {} points; a face needs at least 3", name,
-                                        loop.size()));
+    throw InputError(
+        where, fmt::format("face '{}' has {} points; a face needs at least 3", name, loop.size()));
   }
   for (size_t i = 0; i < loop.size(); ++i)
     for (size_t j = i + 1; j < loop.size(); ++j)
       if (loop[i] == loop[j]) {
-        throw InputError(where, fmt::format("face '{}' visits point '{}' twice", name,
-                                            c.points[loop[i]].name));
+        throw InputError(
+            where, fmt::format("face '{}' visits point '{}' twice", name, c.points[loop[i]].name));
       }
   c.faces.push_back({name, std::move(loop), where});
 }
@@ -196,8 +200,9 @@ void ModelBuilder::AddFace(int component, const std::string& name, std::vector<i
 int ModelBuilder::AddJoint(const JointSpec& spec) {
   RequireIdentifier(spec.name, "joint", spec.where);
   if (graph_.FindJoint(spec.name) >= 0) {
-    throw InputError(spec.where, fmt::format("duplicate joint name '{}', first defined{}", spec.name,
-                                             Located(graph_.joints[graph_.FindJoint(spec.name)].where)));
+    throw InputError(spec.where,
+                     fmt::format("duplicate joint name '{}', first defined{}", spec.name,
+                                 Located(graph_.joints[graph_.FindJoint(spec.name)].where)));
   }
   RequireUniqueConstraint(spec.name, spec.where);
   const Component& parent = graph_.components.at(spec.parent);
@@ -210,8 +215,8 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
     }
   }
   if (spec.parent == spec.child) {
-    throw InputError(spec.where, fmt::format("joint '{}' connects '{}' to itself", spec.name,
-                                             parent.name));
+    throw InputError(spec.where,
+                     fmt::format("joint '{}' connects '{}' to itself", spec.name, parent.name));
   }
   for (const Joint& j : graph_.joints) {
     if (j.child == spec.child) {
@@ -242,10 +247,10 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
   const bool has_variable = HasJointVariable(spec.type);
   if (spec.limits) {
     if (!has_variable || spec.type == JointType::kContinuous) {
-      throw InputError(spec.where,
-                       fmt::format("joint '{}': a {} joint has no limits{}", spec.name,
-                                   JointTypeName(spec.type),
-                                   spec.type == JointType::kContinuous ? " (use revolute)" : ""));
+      throw InputError(
+          spec.where,
+          fmt::format("joint '{}': a {} joint has no limits{}", spec.name, JointTypeName(spec.type),
+                      spec.type == JointType::kContinuous ? " (use revolute)" : ""));
     }
     if (!(spec.limits->first < spec.limits->second)) {
       throw InputError(spec.where, fmt::format("joint '{}': the lower limit is not below the "
@@ -361,9 +366,8 @@ int ModelBuilder::FixComponent(int component, bool position, bool orientation,
   CFUSE_CHECK(c.rigid && (position || orientation));
   const char* what = position && orientation ? "pose" : position ? "position" : "orientation";
   const std::string name = UniqueConstraintName(fmt::format("fixed_{}", c.name));
-  ConstraintParts parts{std::make_shared<FixPoseResidual>(target, position, orientation),
-                        {c.block},
-                        -1};
+  ConstraintParts parts{
+      std::make_shared<FixPoseResidual>(target, position, orientation), {c.block}, -1};
   return AddConstraint(name, fmt::format("fixed {}", what), std::move(parts), where);
 }
 
@@ -378,10 +382,12 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   const int constraint0 = static_cast<int>(graph_.constraints.size());
   for (const Component& c : other.components) {
     if (graph_.FindComponent(prefix + c.name) >= 0) {
-      throw InputError(where, fmt::format("including '{}' defines component '{}'{} again, first "
-                                          "defined{}",
-                                          other.source, prefix + c.name, Located(c.where),
-                                          Located(graph_.components[graph_.FindComponent(prefix + c.name)].where)));
+      throw InputError(
+          where,
+          fmt::format("including '{}' defines component '{}'{} again, first "
+                      "defined{}",
+                      other.source, prefix + c.name, Located(c.where),
+                      Located(graph_.components[graph_.FindComponent(prefix + c.name)].where)));
     }
   }
   for (const Joint& j : other.joints) {

@@ -40,8 +40,7 @@ class ModelBuilder {
   int AddPointComponent(const std::string& name, const Eigen::Vector3d& position,
                         const SourceLocation& where);
   // Without a pose the component sits at the identity until a joint places it.
-  int AddRigidComponent(const std::string& name,
-                        const std::optional<Rigid3d>& world_from_component,
+  int AddRigidComponent(const std::string& name, const std::optional<Rigid3d>& world_from_component,
                         const SourceLocation& where);
   void SetNominalPose(int component, const Rigid3d& world_from_component);
   int AddFeaturePoint(int component, const std::string& name, const Eigen::Vector3d& position,

@@ -589,9 +589,9 @@ std::string SyntaxMessageInFile(const ExprSyntaxError& e, int line, int column, 
   int n = 0;
   while (end < message.size() && IsDigit(message[end])) n = n * 10 + (message[end++] - '0');
   if (end == at + kAt.size()) return message;
-  const std::string where = exact ? "at line " + std::to_string(line) + ", column " +
-                                        std::to_string(column + n - 1)
-                                  : "at column " + std::to_string(n) + " of the expression";
+  const std::string where =
+      exact ? "at line " + std::to_string(line) + ", column " + std::to_string(column + n - 1)
+            : "at column " + std::to_string(n) + " of the expression";
   return message.replace(at, end - at, where);
 }
 

@@ -1,8 +1,8 @@
 #include "dsl/lower.h"
 
-#include <algorithm>
-
 #include <fmt/format.h>
+
+#include <algorithm>
 
 #include "constraints/evaluate.h"
 #include "constraints/kinds/equality.h"
@@ -43,7 +43,8 @@ ExprPtr NominalOf(const ExprPtr& e, const ConstraintGraph& graph) {
   std::vector<ExprPtr> bound = {e};
   const std::vector<int> blocks = BindSlots(&bound);
   const std::vector<BlockState<double>> states = GatherStates(graph.blocks, blocks, graph.nominal);
-  const Eigen::Vector3d v = Evaluate<double>(*bound[0], std::span<const BlockState<double>>(states));
+  const Eigen::Vector3d v =
+      Evaluate<double>(*bound[0], std::span<const BlockState<double>>(states));
   return e->type.vector ? MakeVectorConstant(v, e->type.quantity)
                         : MakeConstant(v.x(), e->type.quantity);
 }
@@ -151,8 +152,8 @@ ExprPtr Lowerer::LowerCall(const AstNode& node, const ExprPtr& nominal) const {
   const FunctionInfo* f = FindFunction(node.name);
   if (f == nullptr) {
     if (const RelationKind* r = FindRelation(node.name)) {
-      Fail(node.span, fmt::format("{} is a relation, not a value: write it as a whole constraint, "
-                                  "e.g. {}",
+      Fail(node.span, fmt::format("{} is a relation, not a value: write it alone as a whole "
+                                  "constraint (usage: {})",
                                   node.name, r->usage));
     }
     std::vector<std::string> names = {"distance", "angle", "angle_between", "dot", "cross", "norm"};
@@ -197,7 +198,8 @@ ExprPtr Lowerer::Lower(const AstNode& node, const ExprPtr& nominal) const {
       if (!node.unit.empty()) {
         const Unit* u = FindUnit(node.unit);
         if (!u) {
-          Fail(node.unit_span, fmt::format("unknown unit '{}' (units: {})", node.unit, KnownUnits()));
+          Fail(node.unit_span,
+               fmt::format("unknown unit '{}' (units: {})", node.unit, KnownUnits()));
         }
         for (size_t i = 0; i < elements.size(); ++i) {
           if (!(elements[i]->type.quantity == Quantity{})) {
@@ -205,7 +207,8 @@ ExprPtr Lowerer::Lower(const AstNode& node, const ExprPtr& nominal) const {
                                                  "vector applies to plain numbers",
                                                  i + 1));
           }
-          elements[i] = MakeBinary(Expr::Op::kMul, elements[i], MakeConstant(u->factor, u->quantity), &why);
+          elements[i] =
+              MakeBinary(Expr::Op::kMul, elements[i], MakeConstant(u->factor, u->quantity), &why);
         }
       }
       for (size_t i = 1; i < elements.size(); ++i) {
@@ -219,9 +222,10 @@ ExprPtr Lowerer::Lower(const AstNode& node, const ExprPtr& nominal) const {
     }
     case AstNode::Kind::kNominal:
       if (!nominal) {
-        Fail(node.span, "'nominal' stands for the value of the left-hand side at the nominal "
-                        "geometry, so it can only appear on the right-hand side of a relation "
-                        "or in the bounds of a range");
+        Fail(node.span,
+             "'nominal' stands for the value of the left-hand side at the nominal "
+             "geometry, so it can only appear on the right-hand side of a relation "
+             "or in the bounds of a range");
       }
       return nominal;
     case AstNode::Kind::kRef:
@@ -234,10 +238,18 @@ ExprPtr Lowerer::Lower(const AstNode& node, const ExprPtr& nominal) const {
       ExprPtr a = Lower(*node.args[0], nominal), b = Lower(*node.args[1], nominal);
       Expr::Op op = Expr::Op::kAdd;
       switch (node.op) {
-        case '+': op = Expr::Op::kAdd; break;
-        case '-': op = Expr::Op::kSub; break;
-        case '*': op = Expr::Op::kMul; break;
-        default: op = Expr::Op::kDiv; break;
+        case '+':
+          op = Expr::Op::kAdd;
+          break;
+        case '-':
+          op = Expr::Op::kSub;
+          break;
+        case '*':
+          op = Expr::Op::kMul;
+          break;
+        default:
+          op = Expr::Op::kDiv;
+          break;
       }
       if (op == Expr::Op::kAdd || op == Expr::Op::kSub) {
         UnifyZero(&a, b);
@@ -257,9 +269,10 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
   try {
     ast = ParseConstraint(text);
   } catch (const ExprSyntaxError& e) {
-    throw InputError(origin_.At(e.offset()),
-                     fmt::format("syntax error in constraint: {}",
-                                 SyntaxMessageInFile(e, origin_.line, origin_.column, origin_.exact)));
+    throw InputError(
+        origin_.At(e.offset()),
+        fmt::format("syntax error in constraint: {}",
+                    SyntaxMessageInFile(e, origin_.line, origin_.column, origin_.exact)));
   }
   const SourceLocation where = origin_.At(0);
   const ConstraintGraph& g = builder_.graph();
@@ -278,22 +291,24 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
       }
       std::vector<std::string> names;
       for (const RelationKind& r : AllRelations()) names.push_back(r.name);
-      Fail(call.span, fmt::format("unknown relation '{}'{}; the relations are parallel, "
-                                  "perpendicular, coplanar, collinear, rigid, or use ==, <=, >=, in",
-                                  call.name, DidYouMean(call.name, names)));
+      Fail(call.span,
+           fmt::format("unknown relation '{}'{}; the relations are parallel, "
+                       "perpendicular, coplanar, collinear, rigid, or use ==, <=, >=, in",
+                       call.name, DidYouMean(call.name, names)));
     }
     const int n = static_cast<int>(call.args.size());
     if (n < kind->min_args || (kind->max_args >= 0 && n > kind->max_args)) {
-      Fail(call.span, fmt::format("{} takes {}{} arguments, got {} (usage: {})", kind->name,
-                                  kind->max_args < 0 ? "at least " : "", kind->min_args, n,
-                                  kind->usage));
+      Fail(call.span,
+           fmt::format("{} takes {}{} arguments, got {} (usage: {})", kind->name,
+                       kind->max_args < 0 ? "at least " : "", kind->min_args, n, kind->usage));
     }
     std::vector<ExprPtr> args;
     for (size_t i = 0; i < call.args.size(); ++i) {
       args.push_back(Lower(*call.args[i], nullptr));
       if (!args.back()->type.vector) {
-        Fail(call.args[i]->span, fmt::format("argument {} of {} must be a point or vector, got a {}",
-                                             i + 1, kind->name, args.back()->type.ToString()));
+        Fail(call.args[i]->span,
+             fmt::format("argument {} of {} must be a point or vector, got a {}", i + 1, kind->name,
+                         args.back()->type.ToString()));
       }
     }
     try {
@@ -317,19 +332,23 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
     const Span& span = node.span;
     if (r->type.vector != lhs->type.vector) {
       Fail(span, fmt::format("{} is a {} but the left-hand side is a {}", what,
-                             r->type.vector ? "vector" : "scalar", lhs->type.vector ? "vector" : "scalar"));
+                             r->type.vector ? "vector" : "scalar",
+                             lhs->type.vector ? "vector" : "scalar"));
     }
     if (!(r->type.quantity == lhs->type.quantity)) {
       // A plain number where a length or an angle is due: say how to write one.
       std::string hint;
-      const bool plain = (node.kind == AstNode::Kind::kNumber || node.kind == AstNode::Kind::kVector) &&
-                         node.unit.empty() && r->type.quantity == Quantity{};
-      if (plain && (lhs->type.quantity == Quantity::Length() || lhs->type.quantity == Quantity::Angle())) {
+      const bool plain =
+          (node.kind == AstNode::Kind::kNumber || node.kind == AstNode::Kind::kVector) &&
+          node.unit.empty() && r->type.quantity == Quantity{};
+      if (plain &&
+          (lhs->type.quantity == Quantity::Length() || lhs->type.quantity == Quantity::Angle())) {
         hint = fmt::format("; a number without a unit is dimensionless, write e.g. '{} {}'",
                            ToString(node), lhs->type.quantity == Quantity::Length() ? "m" : "deg");
       }
-      Fail(span, fmt::format("unit mismatch: the left-hand side is in [{}] but {} is in [{}]{}",
-                             lhs->type.quantity.ToString(), what, r->type.quantity.ToString(), hint));
+      Fail(span,
+           fmt::format("unit mismatch: the left-hand side is in [{}] but {} is in [{}]{}",
+                       lhs->type.quantity.ToString(), what, r->type.quantity.ToString(), hint));
     }
   };
 
@@ -346,15 +365,18 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
       case AstConstraint::Relation::kLessEqual:
       case AstConstraint::Relation::kGreaterEqual: {
         const bool greater = ast.relation == AstConstraint::Relation::kGreaterEqual;
-        if (lhs->type.vector) Fail(ast.relation_span, "an inequality compares scalars, not vectors");
+        if (lhs->type.vector)
+          Fail(ast.relation_span, "an inequality compares scalars, not vectors");
         ExprPtr rhs = Lower(*ast.rhs, nominal);
         UnifyZero(&rhs, lhs);
         require_same_type(rhs, *ast.rhs, "the right-hand side");
         const int slack = builder->AddSlack(name);
         double slack0 = 0;
-        ConstraintParts parts = InequalityResidual::Create(lhs, rhs, greater, builder->Context(slack), &slack0);
+        ConstraintParts parts =
+            InequalityResidual::Create(lhs, rhs, greater, builder->Context(slack), &slack0);
         builder->SetSlackNominal(slack, slack0);
-        builder->AddConstraint(name, kind_prefix + (greater ? " >=" : " <="), std::move(parts), where);
+        builder->AddConstraint(name, kind_prefix + (greater ? " >=" : " <="), std::move(parts),
+                               where);
         return;
       }
       case AstConstraint::Relation::kIn: {
@@ -388,14 +410,16 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
   }
 }
 
-double Lowerer::LowerConstantScalar(std::string_view text, Quantity expected, const char* what) const {
+double Lowerer::LowerConstantScalar(std::string_view text, Quantity expected,
+                                    const char* what) const {
   std::unique_ptr<AstNode> ast;
   try {
     ast = ParseExpression(text);
   } catch (const ExprSyntaxError& e) {
-    throw InputError(origin_.At(e.offset()),
-                     fmt::format("invalid {}: {}", what,
-                                 SyntaxMessageInFile(e, origin_.line, origin_.column, origin_.exact)));
+    throw InputError(
+        origin_.At(e.offset()),
+        fmt::format("invalid {}: {}", what,
+                    SyntaxMessageInFile(e, origin_.line, origin_.column, origin_.exact)));
   }
   const std::string expectation =
       expected == Quantity::Angle()    ? "a number with a unit, e.g. '90 deg'"
@@ -408,8 +432,8 @@ double Lowerer::LowerConstantScalar(std::string_view text, Quantity expected, co
     todo.pop_back();
     if (n->kind == AstNode::Kind::kRef || n->kind == AstNode::Kind::kCall ||
         n->kind == AstNode::Kind::kNominal) {
-      Fail(n->span, fmt::format("invalid {}: expected {}, found '{}'", what, expectation,
-                                ToString(*n)));
+      Fail(n->span,
+           fmt::format("invalid {}: expected {}, found '{}'", what, expectation, ToString(*n)));
     }
     for (const auto& a : n->args) todo.push_back(a.get());
   }

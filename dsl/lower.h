@@ -24,7 +24,8 @@ struct TextOrigin {
 
 class Lowerer {
  public:
-  Lowerer(const ModelBuilder& builder, TextOrigin origin) : builder_(builder), origin_(std::move(origin)) {}
+  Lowerer(const ModelBuilder& builder, TextOrigin origin)
+      : builder_(builder), origin_(std::move(origin)) {}
 
   // An expression; `nominal` is the value the keyword `nominal` stands for (nullptr: not allowed).
   ExprPtr Lower(const AstNode& node, const ExprPtr& nominal) const;

@@ -1,5 +1,6 @@
 #include "dsl/model_loader.h"
 
+#include <fmt/format.h>
 #include <yaml-cpp/depthguard.h>
 #include <yaml-cpp/yaml.h>
 
@@ -9,8 +10,6 @@
 #include <fstream>
 #include <set>
 #include <sstream>
-
-#include <fmt/format.h>
 
 #include "constraints/kinds/equality.h"
 #include "constraints/model_builder.h"
@@ -37,7 +36,8 @@ std::string ReadModelFile(const std::string& path, const SourceLocation& where) 
     throw InputError(SourceLocation(path), "is a directory, not a model file");
   }
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(SourceLocation(path), fmt::format("cannot open: {}", std::strerror(errno)));
+  if (!in)
+    throw InputError(SourceLocation(path), fmt::format("cannot open: {}", std::strerror(errno)));
   std::string text;
   char buffer[1 << 16];
   while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
@@ -67,15 +67,20 @@ SourceLocation LocationOfOffset(const std::string& file, std::string_view text, 
 void CheckText(const std::string& file, std::string_view text) {
   const size_t nul = text.find('\0');
   if (nul != std::string_view::npos) {
-    throw InputError(SourceLocation(file),
-                     fmt::format("is a binary file, not a YAML model (NUL byte at offset {})", nul));
+    throw InputError(
+        SourceLocation(file),
+        fmt::format("is a binary file, not a YAML model (NUL byte at offset {})", nul));
   }
-  // UTF-8 validation: YAML text must be UTF-8.
-  // Strict (RFC 3629): no overlong forms, surrogates or code points above U+10FFFF, which
-  // would otherwise pass into names and messages.
+  // UTF-8 validation: YAML text must be UTF-8, strictly (RFC 3629: no overlong forms,
+  // surrogates or code points above U+10FFFF, which would otherwise pass into names and messages).
   for (size_t i = 0; i < text.size();) {
     const unsigned char c = static_cast<unsigned char>(text[i]);
-    const int extra = c < 0x80 ? 0 : c < 0xC2 ? -1 : c < 0xE0 ? 1 : c < 0xF0 ? 2 : c < 0xF5 ? 3 : -1;
+    const int extra = c < 0x80   ? 0
+                      : c < 0xC2 ? -1
+                      : c < 0xE0 ? 1
+                      : c < 0xF0 ? 2
+                      : c < 0xF5 ? 3
+                                 : -1;
     // The range of the second byte; the later ones are 0x80..0xBF.
     unsigned char lo = 0x80, hi = 0xBF;
     if (c == 0xE0) lo = 0xA0;
@@ -99,7 +104,8 @@ void CheckText(const std::string& file, std::string_view text) {
     const size_t first = line.find_first_not_of(" \t\r");
     if (first != std::string::npos && line[first] != '#') blank = false;
   }
-  if (blank) throw InputError(SourceLocation(file), "file is empty: a model needs components or points");
+  if (blank)
+    throw InputError(SourceLocation(file), "file is empty: a model needs components or points");
 }
 
 // ---------------------------------------------------------------------------------------------
@@ -117,9 +123,9 @@ class Document {
       documents = YAML::LoadAll(text_);
     } catch (const YAML::DeepRecursion& e) {
       // yaml-cpp's own message for this is "bad file".
-      throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
-                       fmt::format("YAML syntax error: nested more than {} levels deep",
-                                   e.depth() - 1));
+      throw InputError(
+          SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
+          fmt::format("YAML syntax error: nested more than {} levels deep", e.depth() - 1));
     } catch (const YAML::ParserException& e) {
       throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
                        fmt::format("YAML syntax error: {}", e.msg));
@@ -127,8 +133,9 @@ class Document {
     // A second document after '---' would otherwise be dropped without a word.
     for (size_t i = 1; i < documents.size(); ++i) {
       if (!documents[i].IsNull()) {
-        Fail(documents[i], "a model file holds one YAML document, this is a second one (after "
-                           "'---'); split it into files and use include");
+        Fail(documents[i],
+             "a model file holds one YAML document, this is a second one (after "
+             "'---'); split it into files and use include");
       }
     }
     return documents.empty() ? YAML::Node(YAML::NodeType::Null) : documents[0];
@@ -176,9 +183,9 @@ class Document {
 
   // Entries of a mapping in file order, refusing duplicate keys and keys not in `allowed`
   // (when given).
-  std::vector<std::pair<YAML::Node, YAML::Node>> Entries(const YAML::Node& map,
-                                                         const std::string& what,
-                                                         const std::vector<std::string>& allowed) const {
+  std::vector<std::pair<YAML::Node, YAML::Node>> Entries(
+      const YAML::Node& map, const std::string& what,
+      const std::vector<std::string>& allowed) const {
     RequireMap(map, what);
     std::vector<std::pair<YAML::Node, YAML::Node>> out;
     std::set<std::string> seen;
@@ -259,7 +266,9 @@ double Loader::Quantity1(const Document& doc, const YAML::Node& node, Quantity q
   const double v = std::strtod(begin, &end);
   if (end != begin && *end == '\0' && errno == 0) {
     if (!std::isfinite(v)) doc.Fail(node, fmt::format("invalid {}: '{}' is not finite", what, s));
-    return v * (q == Quantity::Angle() ? units_.angle : units_.length);
+    if (q == Quantity::Angle()) return v * units_.angle;
+    if (q == Quantity::Length()) return v * units_.length;
+    return v;  // dimensionless: quaternions, axes
   }
   const Lowerer lower(*builder_, doc.Origin(node));
   return lower.LowerConstantScalar(s, q, what);
@@ -315,12 +324,15 @@ void Loader::ReadUnits(const Document& doc, const YAML::Node& node) {
   }
 }
 
-void Loader::ReadIncludes(const Document& doc, const YAML::Node& node, const std::string& base_dir) {
+void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
+                          const std::string& base_dir) {
   std::vector<YAML::Node> items;
-  if (node.IsScalar()) {
+  if (node.IsScalar() || node.IsMap()) {
     items.push_back(node);
   } else {
-    doc.RequireSequence(node, "include");
+    if (!node.IsSequence()) {
+      doc.Fail(node, "include takes a file name, a {file, prefix} mapping, or a list of them");
+    }
     for (const YAML::Node& item : node) items.push_back(item);
   }
   for (const YAML::Node& item : items) {
@@ -347,7 +359,8 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node, const std
     ConstraintGraph included;
     if (ext == ".yaml" || ext == ".yml") {
       if (static_cast<int>(stack_->size()) >= kMaxIncludeDepth) {
-        throw InputError(where, fmt::format("includes are nested more than {} deep", kMaxIncludeDepth));
+        throw InputError(where,
+                         fmt::format("includes are nested more than {} deep", kMaxIncludeDepth));
       }
       std::error_code ec;
       const std::string canonical = fs::weakly_canonical(display, ec).string();
@@ -383,6 +396,11 @@ void Loader::ReadComponents(const Document& doc, const YAML::Node& node) {
   for (const auto& [key, value] : doc.Entries(node, "components", {})) {
     const std::string name = key.Scalar();
     const std::string what = fmt::format("component '{}'", name);
+    if (value.IsNull()) {
+      doc.Fail(key, fmt::format("{} has no definition: give it points (or write '{}: {{}}' for a "
+                                "component without feature points)",
+                                what, name));
+    }
     const auto entries = doc.Entries(value, what, {"pose", "points", "edges", "faces"});
     ModelBuilder::RequireIdentifier(name, "component", doc.Loc(key));
     std::optional<Rigid3d> pose;
@@ -401,7 +419,8 @@ void Loader::ReadComponents(const Document& doc, const YAML::Node& node) {
       const int i = builder_->graph().components[c].FindPoint(p);
       if (i < 0) {
         std::vector<std::string> names;
-        for (const FeaturePoint& fp : builder_->graph().components[c].points) names.push_back(fp.name);
+        for (const FeaturePoint& fp : builder_->graph().components[c].points)
+          names.push_back(fp.name);
         const std::string s = Suggest(p, names);
         doc.Fail(n, fmt::format("component '{}' has no point '{}'{}", name, p,
                                 s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
@@ -427,6 +446,9 @@ void Loader::ReadComponents(const Document& doc, const YAML::Node& node) {
 
 void Loader::ReadPoints(const Document& doc, const YAML::Node& node) {
   for (const auto& [key, value] : doc.Entries(node, "points", {})) {
+    if (value.IsNull()) {
+      doc.Fail(key, fmt::format("point '{}' has no coordinates [x, y, z]", key.Scalar()));
+    }
     builder_->AddPointComponent(key.Scalar(),
                                 Vector(doc, value, Quantity::Length(), "a point's coordinates"),
                                 doc.Loc(key));
@@ -456,8 +478,11 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
   for (const auto& [key, value] : doc.Entries(node, "joints", {})) {
     const std::string name = key.Scalar();
     const std::string what = fmt::format("joint '{}'", name);
-    const auto entries =
-        doc.Entries(value, what, {"type", "parent", "child", "origin", "axis", "limits", "position"});
+    if (value.IsNull())
+      doc.Fail(key,
+               fmt::format("{} has no definition: it needs a type, a parent and a child", what));
+    const auto entries = doc.Entries(
+        value, what, {"type", "parent", "child", "origin", "axis", "limits", "position"});
     JointSpec spec;
     spec.name = name;
     spec.where = doc.Loc(key);
@@ -487,12 +512,17 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
         continue;
       }
       if (c == spec.parent) doc.Fail(n, fmt::format("{} connects '{}' to itself", what, comp.name));
+      std::vector<std::pair<std::string, SourceLocation>> joints;  // earlier ones, with children
+      for (const Joint& j : builder_->graph().joints) {
+        if (j.child == c) joints.emplace_back(j.name, j.where);
+      }
       for (const Pending& p : pending) {
-        if (p.spec.child == c) {
-          doc.Fail(n, fmt::format("{}: component '{}' is already the child of joint '{}' (at {}); "
-                                  "close a kinematic loop with a constraint instead",
-                                  what, comp.name, p.spec.name, p.spec.where.ToString()));
-        }
+        if (p.spec.child == c) joints.emplace_back(p.spec.name, p.spec.where);
+      }
+      if (!joints.empty()) {
+        doc.Fail(n, fmt::format("{}: component '{}' is already the child of joint '{}' (at {}); "
+                                "close a kinematic loop with a constraint instead",
+                                what, comp.name, joints[0].first, joints[0].second.ToString()));
       }
       spec.child = c;
     }
@@ -505,7 +535,8 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
     if (has_variable) {
       if (!Present(axis)) doc.Fail(value, fmt::format("{} ({}) needs an 'axis'", what, type_name));
       spec.axis = Vector(doc, axis, Quantity{}, "axis");
-      if (!(spec.axis.norm() > 1e-9)) doc.Fail(axis, fmt::format("{}: the axis has zero length", what));
+      if (!(spec.axis.norm() > 1e-9))
+        doc.Fail(axis, fmt::format("{}: the axis has zero length", what));
     } else if (Present(axis)) {
       doc.Fail(axis, fmt::format("a {} joint has no axis", type_name));
     }
@@ -517,7 +548,8 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       if (!n.IsSequence() || n.size() != 2) doc.Fail(n, "limits must be a list [lower, upper]");
       const double lo = Quantity1(doc, n[0], q, "lower limit");
       const double hi = Quantity1(doc, n[1], q, "upper limit");
-      if (!(lo < hi)) doc.Fail(n, fmt::format("{}: the lower limit is not below the upper limit", what));
+      if (!(lo < hi))
+        doc.Fail(n, fmt::format("{}: the lower limit is not below the upper limit", what));
       spec.limits = std::make_pair(lo, hi);
     }
     if (YAML::Node n = Document::Find(entries, "position"); Present(n)) {
@@ -534,7 +566,8 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       if (done[i]) continue;
       bool parent_ready = true;
       for (size_t j = 0; j < pending.size(); ++j) {
-        if (!done[j] && j != i && pending[j].spec.child == pending[i].spec.parent) parent_ready = false;
+        if (!done[j] && j != i && pending[j].spec.child == pending[i].spec.parent)
+          parent_ready = false;
       }
       if (!parent_ready) continue;
       builder_->AddJoint(pending[i].spec);
@@ -543,12 +576,19 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       progress = true;
     }
     if (!progress) {
-      for (size_t i = 0; i < pending.size(); ++i) {
-        if (!done[i]) {
-          doc.Fail(pending[i].key, fmt::format("joint '{}' is part of a cycle of joints",
-                                               pending[i].spec.name));
+      // Walk up from any joint left: after pending.size() steps the walk is on the cycle.
+      size_t i = 0;
+      while (done[i]) ++i;
+      for (size_t step = 0; step < pending.size(); ++step) {
+        for (size_t j = 0; j < pending.size(); ++j) {
+          if (!done[j] && pending[j].spec.child == pending[i].spec.parent) {
+            i = j;
+            break;
+          }
         }
       }
+      doc.Fail(pending[i].key,
+               fmt::format("joint '{}' is part of a cycle of joints", pending[i].spec.name));
     }
   }
 }
@@ -560,11 +600,13 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
       const int c = RequireComponent(doc, item, "a component");
       const Component& comp = builder_->graph().components[c];
       if (comp.rigid) {
-        builder_->FixComponent(c, true, true,
-                               builder_->graph().nominal.poses[builder_->graph().blocks[comp.block].index],
-                               doc.Loc(item));
+        builder_->FixComponent(
+            c, true, true,
+            builder_->graph().nominal.poses[builder_->graph().blocks[comp.block].index],
+            doc.Loc(item));
       } else {
-        const Eigen::Vector3d p = builder_->graph().nominal.points[builder_->graph().blocks[comp.block].index];
+        const Eigen::Vector3d p =
+            builder_->graph().nominal.points[builder_->graph().blocks[comp.block].index];
         builder_->AddConstraint(builder_->UniqueConstraintName("fixed_" + comp.name), "fixed point",
                                 EqualityResidual::Create(MakePointRef(comp.block),
                                                          MakeVectorConstant(p, Quantity::Length()),
@@ -591,7 +633,8 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
         const TextOrigin o = doc.Origin(point_node);
         throw InputError(o.At(e.offset()), SyntaxMessageInFile(e, o.line, o.column, o.exact));
       }
-      if (ast->kind != AstNode::Kind::kRef) doc.Fail(point_node, "'point' names a point, e.g. lid.c3");
+      if (ast->kind != AstNode::Kind::kRef)
+        doc.Fail(point_node, "'point' names a point, e.g. lid.c3");
       const ExprPtr p = lower.Lower(*ast, nullptr);
       Eigen::Vector3d target;
       if (Present(at)) {
@@ -602,10 +645,13 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
         KindContext ctx = builder_->Context();
         target = NominalValues(BoundArgs{bound, blocks, {}}, ctx)[0];
       }
-      builder_->AddConstraint(builder_->UniqueConstraintName("fixed_" + ref), "fixed point",
-                              EqualityResidual::Create(p, MakeVectorConstant(target, Quantity::Length()),
-                                                       builder_->Context()),
-                              doc.Loc(item));
+      builder_->AddConstraint(
+          builder_->UniqueConstraintName("fixed_" + std::string(ast->name) +
+                                         (ast->member.empty() ? "" : "_" + ast->member)),
+          "fixed point",
+          EqualityResidual::Create(p, MakeVectorConstant(target, Quantity::Length()),
+                                   builder_->Context()),
+          doc.Loc(item));
       continue;
     }
     const int c = RequireComponent(doc, comp_node, "a component");
@@ -666,11 +712,15 @@ ConstraintGraph Loader::Load(const std::string& display, const std::string& cano
   const Document doc(display, bom ? text.substr(3) : text);
   const YAML::Node root = doc.Parse();
   if (!root.IsMap()) {
-    if (root.IsNull()) throw InputError(SourceLocation(display), "file is empty: a model needs components or points");
-    doc.Fail(root, "a model file is a mapping with keys such as components, points, joints, constraints");
+    if (root.IsNull())
+      throw InputError(SourceLocation(display),
+                       "file is empty: a model needs components or points");
+    doc.Fail(root,
+             "a model file is a mapping with keys such as components, points, joints, constraints");
   }
   const auto entries = doc.Entries(
-      root, "the model", {"name", "units", "include", "components", "points", "joints", "fixed", "constraints"});
+      root, "the model",
+      {"name", "units", "include", "components", "points", "joints", "fixed", "constraints"});
   std::string name = fs::path(display).stem().string();
   if (YAML::Node n = Document::Find(entries, "name"); Present(n)) name = doc.Scalar(n, "name");
   builder_ = std::make_unique<ModelBuilder>(name, display);

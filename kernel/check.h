@@ -23,11 +23,11 @@ namespace internal {
 
 }  // namespace cfuse
 
-#define CFUSE_CHECK(condition)                                             \
-  do {                                                                     \
-    if (!(condition)) {                                                    \
+#define CFUSE_CHECK(condition)                                            \
+  do {                                                                    \
+    if (!(condition)) {                                                   \
       ::cfuse::internal::CheckFailed(__FILE__, __LINE__, #condition, ""); \
-    }                                                                      \
+    }                                                                     \
   } while (false)
 
 #define CFUSE_CHECK_MSG(condition, message)                                      \

@@ -102,20 +102,18 @@ Matrix3<T> RotationAboutAxis(const Vector3<T>& axis, const T& angle) {
 }
 
 // Two unit vectors completing the unit vector n to a right-handed orthonormal basis
-// (e1, e2, n). Branches on the smallest component of n for conditioning; only ever called on
-// constants or where the branch's own derivative does not matter (see the callers).
+// (e1, e2, n): e1 = normalize(n x h), e2 = n x e1 with a fixed helper h. No smooth choice exists
+// for every n (the hairy ball theorem), so the helper switches from h0 to h1 when n comes
+// within ~25 degrees of h0. Both helpers are "irrational" directions, so the switch never falls
+// on the axis-aligned or 45-degree directions that models are full of: residuals built on the
+// basis are smooth there (at a switch they stay consistent with their own Jacobian, and their
+// zero set does not change).
 template <typename T>
 void OrthonormalComplement(const Vector3<T>& n, Vector3<T>* e1, Vector3<T>* e2) {
   using std::abs;
-  Vector3<T> helper = Vector3<T>::Zero();
-  const T ax = abs(n.x()), ay = abs(n.y()), az = abs(n.z());
-  if (ax <= ay && ax <= az) {
-    helper.x() = T(1);
-  } else if (ay <= az) {
-    helper.y() = T(1);
-  } else {
-    helper.z() = T(1);
-  }
+  const Vector3<T> h0 = Vector3<T>(T(1), T(2), T(3)) / T(std::sqrt(14.0));
+  const Vector3<T> h1 = Vector3<T>(T(-4), T(3), T(0)) / T(5);
+  const Vector3<T>& helper = abs(n.dot(h0)) > T(0.9) ? h1 : h0;
   *e1 = n.cross(helper).normalized();
   *e2 = n.cross(*e1);
 }

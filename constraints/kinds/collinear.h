@@ -58,8 +58,9 @@ class CollinearResidual : public AutoDiffResidual<CollinearResidual> {
         }
       }
     if (best <= 1e-12) {
-      throw KindError("collinear: the points coincide at the nominal geometry, so they do not "
-                      "define a line");
+      throw KindError(
+          "collinear: the points coincide at the nominal geometry, so they do not "
+          "define a line");
     }
     std::vector<int> blocks = args.blocks;
     return {std::make_shared<CollinearResidual>(std::move(args), base), std::move(blocks)};

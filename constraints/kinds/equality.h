@@ -13,12 +13,14 @@ class EqualityResidual : public AutoDiffResidual<EqualityResidual> {
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
-    const Vector3<T> d = cfuse::Evaluate<T>(*args_.exprs[0], x) - cfuse::Evaluate<T>(*args_.exprs[1], x);
+    const Vector3<T> d =
+        cfuse::Evaluate<T>(*args_.exprs[0], x) - cfuse::Evaluate<T>(*args_.exprs[1], x);
     for (int i = 0; i < dimension(); ++i) r[i] = d[i];
   }
 
   std::string Describe(std::span<const std::string> names) const override {
-    return cfuse::Describe(*args_.exprs[0], names) + " == " + cfuse::Describe(*args_.exprs[1], names);
+    return cfuse::Describe(*args_.exprs[0], names) +
+           " == " + cfuse::Describe(*args_.exprs[1], names);
   }
 
   // lhs and rhs of the same type (checked by the caller).

@@ -14,7 +14,8 @@ class InequalityResidual : public AutoDiffResidual<InequalityResidual> {
 
   template <typename T>
   T Margin(std::span<const BlockState<T>> x) const {
-    const T d = cfuse::Evaluate<T>(*args_.exprs[0], x).x() - cfuse::Evaluate<T>(*args_.exprs[1], x).x();
+    const T d =
+        cfuse::Evaluate<T>(*args_.exprs[0], x).x() - cfuse::Evaluate<T>(*args_.exprs[1], x).x();
     return greater_ ? d : -d;
   }
 

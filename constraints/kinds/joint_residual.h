@@ -71,7 +71,8 @@ class JointLimitResidual : public AutoDiffResidual<JointLimitResidual> {
   template <typename T>
   T Centered(std::span<const BlockState<T>> x) const {
     const JointFrames<T> f = ComputeJointFrames(x[0], x[1], geometry_);
-    return prismatic_ ? PrismaticDisplacement(f, geometry_, mid_) : RevoluteAngle(f, geometry_, mid_);
+    return prismatic_ ? PrismaticDisplacement(f, geometry_, mid_)
+                      : RevoluteAngle(f, geometry_, mid_);
   }
 
   template <typename T>

@@ -1,8 +1,8 @@
 #include "constraints/kinds/kind_support.h"
 
-#include <cmath>
-
 #include <fmt/format.h>
+
+#include <cmath>
 
 #include "constraints/evaluate.h"
 #include "kernel/check.h"
@@ -22,7 +22,8 @@ BoundArgs BindArgs(std::vector<ExprPtr> exprs, const KindContext& ctx, bool with
 }
 
 std::vector<Eigen::Vector3d> NominalValues(const BoundArgs& args, const KindContext& ctx) {
-  const std::vector<BlockState<double>> states = GatherStates(*ctx.blocks, args.blocks, *ctx.nominal);
+  const std::vector<BlockState<double>> states =
+      GatherStates(*ctx.blocks, args.blocks, *ctx.nominal);
   std::vector<Eigen::Vector3d> out;
   for (const ExprPtr& e : args.exprs) {
     out.push_back(Evaluate<double>(*e, std::span<const BlockState<double>>(states)));

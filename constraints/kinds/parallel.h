@@ -14,7 +14,8 @@ namespace cfuse {
 
 class ParallelResidual : public AutoDiffResidual<ParallelResidual> {
  public:
-  explicit ParallelResidual(BoundArgs args) : AutoDiffResidual(2, args.kinds), args_(std::move(args)) {}
+  explicit ParallelResidual(BoundArgs args)
+      : AutoDiffResidual(2, args.kinds), args_(std::move(args)) {}
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
@@ -39,7 +40,8 @@ class ParallelResidual : public AutoDiffResidual<ParallelResidual> {
       if (v[i].norm() < 1e-12) {
         throw KindError(fmt::format(
             "parallel: argument {} has zero length at the nominal geometry, its direction is "
-            "undefined", i + 1));
+            "undefined",
+            i + 1));
       }
     }
     std::vector<int> blocks = args.blocks;

@@ -14,7 +14,9 @@ class PerpendicularResidual : public AutoDiffResidual<PerpendicularResidual> {
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
-    r[0] = cfuse::Evaluate<T>(*args_.exprs[0], x).normalized().dot(cfuse::Evaluate<T>(*args_.exprs[1], x).normalized());
+    r[0] = cfuse::Evaluate<T>(*args_.exprs[0], x)
+               .normalized()
+               .dot(cfuse::Evaluate<T>(*args_.exprs[1], x).normalized());
   }
 
   std::string Describe(std::span<const std::string> names) const override {
@@ -30,7 +32,8 @@ class PerpendicularResidual : public AutoDiffResidual<PerpendicularResidual> {
       if (v[i].norm() < 1e-12) {
         throw KindError(fmt::format(
             "perpendicular: argument {} has zero length at the nominal geometry, its direction "
-            "is undefined", i + 1));
+            "is undefined",
+            i + 1));
       }
     }
     std::vector<int> blocks = args.blocks;

@@ -4,7 +4,10 @@
 // the base triangle (a, b, c) of largest area, the signed volume
 //   ((b - a) × (c - a)) · (pk - a) - V_k      (scaled by 1 / extent² to metres).
 // Distances alone leave a planar group infinitesimally flexible out of its plane and cannot
-// tell a group from its mirror image; the volumes fix both. From the candidates we keep, in
+// tell a group from its mirror image; the volumes fix both. A collinear group has no base
+// triangle: its candidates are instead, for every point k off the farthest pair (a, b), the two
+// components of pk - a orthogonal to the line (as in collinear.h), which distances alone leave
+// free to first order. From the candidates we keep, in
 // that order, each row that raises the rank of the Jacobian at the nominal geometry (3n - 6
 // rows for a non-degenerate group), so the constraint is full-rank by construction.
 #pragma once
@@ -19,8 +22,10 @@ namespace cfuse {
 class RigidResidual : public AutoDiffResidual<RigidResidual> {
  public:
   struct Row {
-    bool volume = false;
-    int i = 0, j = 0, k = 0, l = 0;  // distance: i, j; volume: base i, j, k and point l
+    enum class Kind { kDistance, kVolume, kLineOffset } kind = Kind::kDistance;
+    // distance: i, j; volume: base i, j, k and point l; line offset: line i -> j, point l,
+    // component k (0 or 1) of the offset orthogonal to the line.
+    int i = 0, j = 0, k = 0, l = 0;
     double nominal = 0;
   };
 
@@ -37,11 +42,21 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
     for (const ExprPtr& e : args_.exprs) p.push_back(cfuse::Evaluate<T>(*e, x));
     for (size_t n = 0; n < rows_.size(); ++n) {
       const Row& row = rows_[n];
-      if (row.volume) {
-        const Vector3<T> normal = (p[row.j] - p[row.i]).cross(p[row.k] - p[row.i]);
-        r[n] = (normal.dot(p[row.l] - p[row.i]) - T(row.nominal)) * T(volume_scale_);
-      } else {
-        r[n] = (p[row.i] - p[row.j]).norm() - T(row.nominal);
+      switch (row.kind) {
+        case Row::Kind::kVolume: {
+          const Vector3<T> normal = (p[row.j] - p[row.i]).cross(p[row.k] - p[row.i]);
+          r[n] = (normal.dot(p[row.l] - p[row.i]) - T(row.nominal)) * T(volume_scale_);
+          break;
+        }
+        case Row::Kind::kLineOffset: {
+          Vector3<T> e1, e2;
+          OrthonormalComplement<T>((p[row.j] - p[row.i]).normalized(), &e1, &e2);
+          r[n] = (row.k == 0 ? e1 : e2).dot(p[row.l] - p[row.i]) - T(row.nominal);
+          break;
+        }
+        case Row::Kind::kDistance:
+          r[n] = (p[row.i] - p[row.j]).norm() - T(row.nominal);
+          break;
       }
     }
   }
@@ -70,13 +85,14 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j)
         if ((p[i] - p[j]).norm() <= 1e-9 * extent) {
-          throw KindError(fmt::format(
-              "rigid: points {} and {} coincide at the nominal geometry", i + 1, j + 1));
+          throw KindError(fmt::format("rigid: points {} and {} coincide at the nominal geometry",
+                                      i + 1, j + 1));
         }
 
     std::vector<Row> candidates;
     for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j) candidates.push_back({false, i, j, 0, 0, (p[i] - p[j]).norm()});
+      for (int j = i + 1; j < n; ++j)
+        candidates.push_back({Row::Kind::kDistance, i, j, 0, 0, (p[i] - p[j]).norm()});
     double best = -1;
     std::array<int, 3> t{0, 1, 2};
     for (int i = 0; i < n; ++i)
@@ -92,7 +108,20 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
       for (int l = 0; l < n; ++l) {
         if (l == t[0] || l == t[1] || l == t[2]) continue;
         const double v = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(p[l] - p[t[0]]);
-        candidates.push_back({true, t[0], t[1], t[2], l, v});
+        candidates.push_back({Row::Kind::kVolume, t[0], t[1], t[2], l, v});
+      }
+    } else if (n >= 3 && best <= 1e-9 * extent * extent) {
+      // Collinear: offsets from the line through the farthest pair.
+      int a = 0, b = 1;
+      for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j)
+          if ((p[j] - p[i]).norm() > (p[b] - p[a]).norm()) a = i, b = j;
+      Eigen::Vector3d e1, e2;
+      OrthonormalComplement<double>((p[b] - p[a]).normalized(), &e1, &e2);
+      for (int l = 0; l < n; ++l) {
+        if (l == a || l == b) continue;
+        candidates.push_back({Row::Kind::kLineOffset, a, b, 0, l, e1.dot(p[l] - p[a])});
+        candidates.push_back({Row::Kind::kLineOffset, a, b, 1, l, e2.dot(p[l] - p[a])});
       }
     }
     const double volume_scale = 1.0 / (extent * extent);
@@ -116,8 +145,9 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
       }
     }
     if (rows.empty()) {
-      throw KindError("rigid: the points already belong to one rigid component, so the "
-                      "constraint adds nothing");
+      throw KindError(
+          "rigid: the points already belong to one rigid component, so the "
+          "constraint adds nothing");
     }
     std::vector<int> blocks = args.blocks;
     return {std::make_shared<RigidResidual>(std::move(args), std::move(rows), volume_scale),

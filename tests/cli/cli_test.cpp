@@ -40,8 +40,22 @@ TEST_CASE("cli: check prints the summary and warns about violated constraints", 
   std::ostringstream out, err;
   REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
   CHECK(out.str().find("DOF: 5 (5 rigid-body + 0 internal)") != std::string::npos);
-  CHECK(out.str().find(model.string() + ":4:11: warning: constraint 'too_long' "
+  CHECK(out.str().find(model.string() +
+                       ":4:11: warning: constraint 'too_long' "
                        "(distance(a, b) == 2 m) is violated by the nominal geometry") !=
+        std::string::npos);
+}
+
+TEST_CASE("cli: check warns about a face that is not planar", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const fs::path model = dir / "warped.yaml";
+  std::ofstream(model)
+      << "components:\n  plate:\n    points: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 1, 0], "
+         "d: [0, 1, 0.1]}\n    faces:\n      top: [a, b, c, d]\n";
+  std::ostringstream out, err;
+  REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
+  CHECK(out.str().find(model.string() + ":5:7: warning: face 'top' of 'plate' is not planar") !=
         std::string::npos);
 }
 
@@ -69,7 +83,8 @@ TEST_CASE("cli: graph writes dot, atomically", "[cli]") {
   CHECK(content.str().find("hinge\\nrevolute") != std::string::npos);
   // No stray temporary files.
   int files = 0;
-  for (const auto& entry : fs::directory_iterator(dir)) files += entry.path().filename().string()[0] == '.';
+  for (const auto& entry : fs::directory_iterator(dir))
+    files += entry.path().filename().string()[0] == '.';
   CHECK(files == 0);
 
   // A model error writes nothing; a missing directory is refused.
@@ -79,7 +94,8 @@ TEST_CASE("cli: graph writes dot, atomically", "[cli]") {
   CHECK(RunGraph({"missing.yaml", bad.string()}, out2, err2) == 2);
   CHECK(!fs::exists(bad));
   std::ostringstream out3, err3;
-  CHECK(RunGraph({testing::SourcePath("examples/lamp.yaml"), (dir / "nope" / "x.dot").string()}, out3, err3) == 2);
+  CHECK(RunGraph({testing::SourcePath("examples/lamp.yaml"), (dir / "nope" / "x.dot").string()},
+                 out3, err3) == 2);
   CHECK(err3.str().find("directory") != std::string::npos);
 }
 

@@ -3,6 +3,7 @@
 
 #include <catch2/catch.hpp>
 
+#include "constraints/jacobian_checker.h"
 #include "constraints/kinds/equality.h"
 #include "constraints/kinds/registry.h"
 #include "constraints/model_builder.h"
@@ -22,12 +23,14 @@ struct Model {
          b.graph().nominal.points[b.graph().blocks[b.graph().components[j].block].index])
             .norm(),
         Quantity::Length());
-    b.AddConstraint(b.UniqueConstraintName("d"), "distance", EqualityResidual::Create(d, nominal, b.Context()), {});
+    b.AddConstraint(b.UniqueConstraintName("d"), "distance",
+                    EqualityResidual::Create(d, nominal, b.Context()), {});
   }
   void Relation(const char* name, std::vector<int> points) {
     std::vector<ExprPtr> args;
     for (int p : points) args.push_back(P(p));
-    b.AddConstraint(b.UniqueConstraintName(name), name, FindRelation(name)->create(args, b.Context()), {});
+    b.AddConstraint(b.UniqueConstraintName(name), name,
+                    FindRelation(name)->create(args, b.Context()), {});
   }
   DofReport Dof() const { return AnalyzeDof(b.graph(), b.graph().nominal); }
 };
@@ -59,7 +62,8 @@ TEST_CASE("dof: a chain of three points has one internal DOF", "[constraints]") 
   CHECK(r.redundant.empty());
 }
 
-TEST_CASE("dof: rigid() makes a planar group rigid, where its distances alone would not", "[constraints]") {
+TEST_CASE("dof: rigid() makes a planar group rigid, where its distances alone would not",
+          "[constraints]") {
   // Four coplanar points with all six distances flex out of their plane to first order.
   Model distances;
   for (const auto& [name, p] : std::vector<std::pair<const char*, Eigen::Vector3d>>{
@@ -72,8 +76,12 @@ TEST_CASE("dof: rigid() makes a planar group rigid, where its distances alone wo
   CHECK(distances.Dof().redundant.size() == 1);
 
   Model rigid;
-  for (const auto& [name, p] : std::vector<std::pair<const char*, Eigen::Vector3d>>{
-           {"a", {0, 0, 0}}, {"b", {1, 0, 0}}, {"c", {1, 1, 0}}, {"d", {0, 1, 0}}, {"e", {0.5, 0.5, 0}}}) {
+  for (const auto& [name, p] :
+       std::vector<std::pair<const char*, Eigen::Vector3d>>{{"a", {0, 0, 0}},
+                                                            {"b", {1, 0, 0}},
+                                                            {"c", {1, 1, 0}},
+                                                            {"d", {0, 1, 0}},
+                                                            {"e", {0.5, 0.5, 0}}}) {
     rigid.Point(name, p);
   }
   rigid.Relation("rigid", {0, 1, 2, 3, 4});
@@ -82,6 +90,25 @@ TEST_CASE("dof: rigid() makes a planar group rigid, where its distances alone wo
   CHECK(r.dof == 6);
   CHECK(r.internal == 0);
   CHECK(r.redundant.empty());
+}
+
+TEST_CASE("dof: rigid() on collinear points is rigid too", "[constraints]") {
+  Model m;
+  for (const auto& [name, p] : std::vector<std::pair<const char*, Eigen::Vector3d>>{
+           {"a", {0, 0, 0}}, {"b", {1, 0, 0}}, {"c", {3, 0, 0}}, {"d", {4, 0, 0}}}) {
+    m.Point(name, p);
+  }
+  m.Relation("rigid", {0, 1, 2, 3});
+  const DofReport r = m.Dof();
+  CHECK(r.equations == 3 * 4 - 5);  // a rigid rod: no spin about its axis
+  CHECK(r.dof == 5);
+  CHECK(r.rigid_body == 5);
+  CHECK(r.internal == 0);
+  // Its line-offset rows differentiate correctly away from the line too.
+  Values moved = m.b.graph().nominal;
+  moved.points[2] += Eigen::Vector3d(0.1, -0.2, 0.3);
+  const Constraint& c = m.b.graph().constraints[0];
+  testing::CheckJacobian(m.b.graph(), *c.residual, c.blocks, moved);
 }
 
 TEST_CASE("dof: parallel and collinear are full rank by construction", "[constraints]") {
@@ -107,7 +134,8 @@ TEST_CASE("dof: joints between two rigid bodies", "[constraints]") {
   for (const auto& [type, dof] : expected) {
     DYNAMIC_SECTION(JointTypeName(type)) {
       ModelBuilder b("m", "test");
-      const int a = b.AddRigidComponent("a", Rigid3d::FromXyzRpy({0.1, 0.2, 0.3}, {0.4, -1.0, 2.0}), {});
+      const int a =
+          b.AddRigidComponent("a", Rigid3d::FromXyzRpy({0.1, 0.2, 0.3}, {0.4, -1.0, 2.0}), {});
       const int c = b.AddRigidComponent("c", std::nullopt, {});
       JointSpec spec;
       spec.name = "j";
@@ -116,7 +144,8 @@ TEST_CASE("dof: joints between two rigid bodies", "[constraints]") {
       spec.child = c;
       spec.parent_from_joint = Rigid3d::FromXyzRpy({0, 0.5, 0}, {0.1, 0.2, 0.3});
       spec.axis = {1, 2, 3};
-      if (HasJointVariable(type) && type != JointType::kContinuous) spec.limits = std::make_pair(-1.0, 1.0);
+      if (HasJointVariable(type) && type != JointType::kContinuous)
+        spec.limits = std::make_pair(-1.0, 1.0);
       b.AddJoint(spec);
       const DofReport r = AnalyzeDof(b.graph(), b.graph().nominal);
       CHECK(r.dof == dof);

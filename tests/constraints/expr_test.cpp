@@ -6,7 +6,8 @@
 namespace cfuse {
 namespace {
 
-TEST_CASE("expr: types and units propagate, mismatches are refused with a reason", "[constraints]") {
+TEST_CASE("expr: types and units propagate, mismatches are refused with a reason",
+          "[constraints]") {
   std::string why;
   const ExprPtr p = MakePointRef(0), q = MakePointRef(1);
   const ExprPtr d = MakeCall(Function::kDistance, {p, q}, &why);
@@ -39,9 +40,10 @@ TEST_CASE("expr: constants fold and print in canonical units", "[constraints]") 
   REQUIRE(e->op == Expr::Op::kConstant);
   CHECK(e->constant.x() == Approx(2 * M_PI / 3));
   CHECK(Describe(*e, {}) == "120 deg");
-  const ExprPtr v = MakeVector({MakeConstant(0.1, Quantity::Length()), MakeNeg(MakeConstant(0.2, Quantity::Length())),
-                                MakeConstant(0, Quantity::Length())},
-                               &why);
+  const ExprPtr v = MakeVector(
+      {MakeConstant(0.1, Quantity::Length()), MakeNeg(MakeConstant(0.2, Quantity::Length())),
+       MakeConstant(0, Quantity::Length())},
+      &why);
   REQUIRE(v->op == Expr::Op::kConstant);
   CHECK(Describe(*v, {}) == "[0.1, -0.2, 0] m");
 }
@@ -50,7 +52,9 @@ TEST_CASE("expr: printing respects precedence and names slots", "[constraints]")
   std::string why;
   const ExprPtr a = MakeFeatureRef(7, {0, 0, 0}, "tip"), b = MakePointRef(3);
   const ExprPtr d = MakeCall(Function::kDistance, {a, b}, &why);
-  const ExprPtr e = MakeBinary(Expr::Op::kSub, d, MakeBinary(Expr::Op::kSub, d, MakeConstant(0.002, Quantity::Length()), &why), &why);
+  const ExprPtr e = MakeBinary(
+      Expr::Op::kSub, d,
+      MakeBinary(Expr::Op::kSub, d, MakeConstant(0.002, Quantity::Length()), &why), &why);
   std::vector<ExprPtr> exprs = {e};
   const std::vector<int> blocks = BindSlots(&exprs);
   CHECK(blocks == std::vector<int>{7, 3});

@@ -41,9 +41,8 @@ inline void CheckJacobian(const ConstraintGraph& graph, const ResidualFunction& 
       EvaluateResidual(f, graph.blocks, blocks, minus, &rm, nullptr);
       const Eigen::VectorXd numeric = (rp - rm) / (2 * h);
       for (int row = 0; row < f.dimension(); ++row) {
-        INFO("row " << row << ", column " << col << " (block " << block.name << ", coordinate "
-                    << i << "): autodiff " << J(row, col) << ", central difference "
-                    << numeric[row]);
+        INFO("row " << row << ", column " << col << " (block " << block.name << ", coordinate " << i
+                    << "): autodiff " << J(row, col) << ", central difference " << numeric[row]);
         CHECK(std::abs(J(row, col) - numeric[row]) <= 1e-6 * (1 + std::abs(J(row, col))));
       }
     }

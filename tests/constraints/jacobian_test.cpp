@@ -34,7 +34,8 @@ struct Scene {
       builder.AddFeaturePoint(c, "a", RandomVector(rng, 0.3), {});
       builder.AddFeaturePoint(c, "b", RandomVector(rng, 0.3), {});
     }
-    for (const char* name : {"p", "q", "r", "s"}) builder.AddPointComponent(name, RandomVector(rng), {});
+    for (const char* name : {"p", "q", "r", "s"})
+      builder.AddPointComponent(name, RandomVector(rng), {});
   }
   ExprPtr F(const char* comp, const char* point) const {
     const ConstraintGraph& g = builder.graph();
@@ -63,7 +64,8 @@ struct Scene {
     builder.AddConstraint(name, "test", EqualityResidual::Create(lhs, rhs, builder.Context()), {});
   }
   void Relation(const std::string& name, const char* relation, std::vector<ExprPtr> args) {
-    builder.AddConstraint(name, relation, FindRelation(relation)->create(std::move(args), builder.Context()), {});
+    builder.AddConstraint(name, relation,
+                          FindRelation(relation)->create(std::move(args), builder.Context()), {});
   }
 
   std::mt19937 rng;
@@ -74,30 +76,46 @@ using Builder = std::function<void(Scene&)>;
 
 const std::vector<std::pair<const char*, Builder>>& Cases() {
   static const std::vector<std::pair<const char*, Builder>> cases = {
-      {"distance", [](Scene& s) { s.Equal("k", Scene::Call(Function::kDistance, {s.F("A", "a"), s.P("p")})); }},
-      {"angle", [](Scene& s) { s.Equal("k", Scene::Call(Function::kAngle, {s.F("A", "a"), s.F("B", "b"), s.P("p")})); }},
+      {"distance",
+       [](Scene& s) {
+         s.Equal("k", Scene::Call(Function::kDistance, {s.F("A", "a"), s.P("p")}));
+       }},
+      {"angle",
+       [](Scene& s) {
+         s.Equal("k", Scene::Call(Function::kAngle, {s.F("A", "a"), s.F("B", "b"), s.P("p")}));
+       }},
       {"angle_between",
        [](Scene& s) {
-         s.Equal("k", Scene::Call(Function::kAngleBetween, {Scene::Sub(s.F("A", "a"), s.F("B", "b")), Scene::Sub(s.P("p"), s.P("q"))}));
+         s.Equal("k",
+                 Scene::Call(Function::kAngleBetween, {Scene::Sub(s.F("A", "a"), s.F("B", "b")),
+                                                       Scene::Sub(s.P("p"), s.P("q"))}));
        }},
       {"dot",
        [](Scene& s) {
-         s.Equal("k", Scene::Call(Function::kDot, {Scene::Sub(s.F("A", "a"), s.P("p")), Scene::Sub(s.F("B", "b"), s.P("q"))}));
+         s.Equal("k", Scene::Call(Function::kDot, {Scene::Sub(s.F("A", "a"), s.P("p")),
+                                                   Scene::Sub(s.F("B", "b"), s.P("q"))}));
        }},
       {"cross",
        [](Scene& s) {
-         s.Equal("k", Scene::Call(Function::kCross, {Scene::Sub(s.F("A", "a"), s.P("p")), Scene::Sub(s.F("B", "b"), s.P("q"))}));
+         s.Equal("k", Scene::Call(Function::kCross, {Scene::Sub(s.F("A", "a"), s.P("p")),
+                                                     Scene::Sub(s.F("B", "b"), s.P("q"))}));
        }},
-      {"norm", [](Scene& s) { s.Equal("k", Scene::Call(Function::kNorm, {Scene::Sub(s.F("A", "a"), s.F("B", "b"))})); }},
+      {"norm",
+       [](Scene& s) {
+         s.Equal("k", Scene::Call(Function::kNorm, {Scene::Sub(s.F("A", "a"), s.F("B", "b"))}));
+       }},
       {"arithmetic",
        [](Scene& s) {
          std::string why;
          ExprPtr d1 = Scene::Call(Function::kDistance, {s.P("p"), s.P("q")});
          ExprPtr d2 = Scene::Call(Function::kDistance, {s.F("A", "a"), s.F("B", "b")});
-         ExprPtr e = MakeBinary(Expr::Op::kSub, MakeBinary(Expr::Op::kMul, MakeConstant(2, {}), d1, &why),
-                                MakeBinary(Expr::Op::kDiv, d2, MakeConstant(3, {}), &why), &why);
+         ExprPtr e =
+             MakeBinary(Expr::Op::kSub, MakeBinary(Expr::Op::kMul, MakeConstant(2, {}), d1, &why),
+                        MakeBinary(Expr::Op::kDiv, d2, MakeConstant(3, {}), &why), &why);
          ExprPtr v = MakeBinary(Expr::Op::kAdd, MakeNeg(s.P("r")),
-                                MakeBinary(Expr::Op::kMul, s.F("C", "a"), MakeBinary(Expr::Op::kDiv, d1, d2, &why), &why), &why);
+                                MakeBinary(Expr::Op::kMul, s.F("C", "a"),
+                                           MakeBinary(Expr::Op::kDiv, d1, d2, &why), &why),
+                                &why);
          s.Equal("k", MakeBinary(Expr::Op::kDiv, e, d1, &why));
          s.Equal("v", v);
          s.Equal("lit", MakeVector({d1, d2, MakeConstant(0.5, Quantity::Length())}, &why));
@@ -106,8 +124,9 @@ const std::vector<std::pair<const char*, Builder>>& Cases() {
        [](Scene& s) {
          const int slack = s.builder.AddSlack("k");
          double s0 = 0;
-         ConstraintParts parts = InequalityResidual::Create(Scene::Call(Function::kDistance, {s.P("p"), s.F("B", "a")}),
-                                                            MakeConstant(0.1, Quantity::Length()), true, s.builder.Context(slack), &s0);
+         ConstraintParts parts = InequalityResidual::Create(
+             Scene::Call(Function::kDistance, {s.P("p"), s.F("B", "a")}),
+             MakeConstant(0.1, Quantity::Length()), true, s.builder.Context(slack), &s0);
          s.builder.SetSlackNominal(slack, 0.7);
          s.builder.AddConstraint("k", "test", std::move(parts), {});
        }},
@@ -115,20 +134,44 @@ const std::vector<std::pair<const char*, Builder>>& Cases() {
        [](Scene& s) {
          const int slack = s.builder.AddSlack("k");
          double s0 = 0;
-         ConstraintParts parts = RangeResidual::Create(Scene::Call(Function::kAngle, {s.P("p"), s.F("B", "a"), s.F("C", "b")}),
-                                                       0.2, 2.5, s.builder.Context(slack), &s0);
+         ConstraintParts parts = RangeResidual::Create(
+             Scene::Call(Function::kAngle, {s.P("p"), s.F("B", "a"), s.F("C", "b")}), 0.2, 2.5,
+             s.builder.Context(slack), &s0);
          s.builder.SetSlackNominal(slack, 0.4);
          s.builder.AddConstraint("k", "test", std::move(parts), {});
        }},
-      {"parallel", [](Scene& s) { s.Relation("k", "parallel", {Scene::Sub(s.F("A", "a"), s.F("A", "b")), Scene::Sub(s.F("B", "a"), s.P("p"))}); }},
-      {"perpendicular", [](Scene& s) { s.Relation("k", "perpendicular", {Scene::Sub(s.F("A", "a"), s.P("q")), Scene::Sub(s.F("B", "a"), s.P("p"))}); }},
-      {"coplanar", [](Scene& s) { s.Relation("k", "coplanar", {s.P("p"), s.P("q"), s.F("A", "a"), s.F("B", "b"), s.P("r")}); }},
+      {"parallel",
+       [](Scene& s) {
+         s.Relation(
+             "k", "parallel",
+             {Scene::Sub(s.F("A", "a"), s.F("A", "b")), Scene::Sub(s.F("B", "a"), s.P("p"))});
+       }},
+      {"perpendicular",
+       [](Scene& s) {
+         s.Relation("k", "perpendicular",
+                    {Scene::Sub(s.F("A", "a"), s.P("q")), Scene::Sub(s.F("B", "a"), s.P("p"))});
+       }},
+      {"coplanar",
+       [](Scene& s) {
+         s.Relation("k", "coplanar", {s.P("p"), s.P("q"), s.F("A", "a"), s.F("B", "b"), s.P("r")});
+       }},
       {"coplanar, arity 30 (chunked autodiff)",
-       [](Scene& s) { s.Relation("k", "coplanar", {s.F("A", "a"), s.F("B", "a"), s.F("C", "a"), s.F("D", "a"), s.F("E", "a")}); }},
-      {"collinear", [](Scene& s) { s.Relation("k", "collinear", {s.P("p"), s.F("A", "a"), s.F("B", "b"), s.P("q")}); }},
-      {"rigid", [](Scene& s) { s.Relation("k", "rigid", {s.P("p"), s.P("q"), s.F("A", "a"), s.F("B", "b"), s.P("r")}); }},
-      {"fixed pose", [](Scene& s) { s.builder.FixComponent(s.Comp("A"), true, true, RandomPose(s.rng), {}); }},
-      {"fixed orientation", [](Scene& s) { s.builder.FixComponent(s.Comp("B"), false, true, RandomPose(s.rng), {}); }},
+       [](Scene& s) {
+         s.Relation("k", "coplanar",
+                    {s.F("A", "a"), s.F("B", "a"), s.F("C", "a"), s.F("D", "a"), s.F("E", "a")});
+       }},
+      {"collinear",
+       [](Scene& s) {
+         s.Relation("k", "collinear", {s.P("p"), s.F("A", "a"), s.F("B", "b"), s.P("q")});
+       }},
+      {"rigid",
+       [](Scene& s) {
+         s.Relation("k", "rigid", {s.P("p"), s.P("q"), s.F("A", "a"), s.F("B", "b"), s.P("r")});
+       }},
+      {"fixed pose",
+       [](Scene& s) { s.builder.FixComponent(s.Comp("A"), true, true, RandomPose(s.rng), {}); }},
+      {"fixed orientation",
+       [](Scene& s) { s.builder.FixComponent(s.Comp("B"), false, true, RandomPose(s.rng), {}); }},
   };
   return cases;
 }
@@ -153,7 +196,8 @@ void CheckAllConstraints(Scene& scene) {
   }
 }
 
-TEST_CASE("jacobian: every function and constraint kind matches central differences", "[constraints]") {
+TEST_CASE("jacobian: every function and constraint kind matches central differences",
+          "[constraints]") {
   for (const auto& [name, build] : Cases()) {
     for (unsigned seed = 1; seed <= 3; ++seed) {
       DYNAMIC_SECTION(name << ", seed " << seed) {
@@ -187,8 +231,9 @@ TEST_CASE("jacobian: every joint type, its variable and its limits", "[constrain
         CheckAllConstraints(scene);
         if (HasJointVariable(type)) {
           const Joint& joint = graph.joints[0];
-          const JointValueFunction q(JointGeometry(joint.parent_from_joint, joint.child_from_joint, joint.axis),
-                                     type == JointType::kPrismatic);
+          const JointValueFunction q(
+              JointGeometry(joint.parent_from_joint, joint.child_from_joint, joint.axis),
+              type == JointType::kPrismatic);
           const std::vector<int> blocks = {graph.components[joint.parent].block,
                                            graph.components[joint.child].block};
           testing::CheckJacobian(graph, q, blocks, graph.nominal);

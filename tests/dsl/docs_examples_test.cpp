@@ -2,7 +2,6 @@
 // be refused with the message quoted on the `> ` line after it, and every construct of the
 // language must appear in at least one loading example.
 #include <catch2/catch.hpp>
-
 #include <fstream>
 #include <sstream>
 #include <string>
@@ -15,10 +14,10 @@
 namespace {
 
 struct DocBlock {
-  int line = 0;         // 1-based line of the opening fence in docs/dsl.md
-  bool error = false;   // ```yaml error
-  std::string text;     // the block's content
-  std::string quote;    // error blocks: the `> ` lines after the block, joined by spaces
+  int line = 0;        // 1-based line of the opening fence in docs/dsl.md
+  bool error = false;  // ```yaml error
+  std::string text;    // the block's content
+  std::string quote;   // error blocks: the `> ` lines after the block, joined by spaces
 };
 
 struct Doc {
@@ -150,8 +149,7 @@ TEST_CASE("docs: every yaml error example in dsl.md is refused with the quoted m
 TEST_CASE("docs: every construct of the language appears in a loading example") {
   const std::vector<std::string> keywords = {
       // relations
-      "==", "<=", ">=", " in [", "parallel(", "perpendicular(", "coplanar(", "collinear(",
-      "rigid(",
+      "==", "<=", ">=", " in [", "parallel(", "perpendicular(", "coplanar(", "collinear(", "rigid(",
       // functions
       "distance(", "angle(", "angle_between(", "dot(", "cross(", "norm(",
       // expressions
@@ -160,8 +158,8 @@ TEST_CASE("docs: every construct of the language appears in a loading example") 
       "units:", "components:", "points:", "pose:", "xyz:", "rpy:", "quaternion:", "edges:",
       "faces:", "joints:", "fixed:", "constraints:", "include:", "prefix:", "file:",
       // joints
-      "revolute", "continuous", "prismatic", "spherical", "type: fixed", "origin:", "axis:",
-      "limits:", "position:",
+      "revolute", "continuous", "prismatic", "spherical", "type: fixed",
+      "origin:", "axis:", "limits:", "position:",
       // fixed entries
       "component:", "point:", "fix: position", "fix: orientation", "at:"};
   const Doc& doc = TheDoc();

@@ -26,11 +26,12 @@ struct ExampleDof {
   int dof, rigid_body, internal;
 };
 
-TEST_CASE("examples: each loads with the DOF it was designed for, nominal geometry consistent", "[dsl]") {
-  for (const ExampleDof& e : {ExampleDof{"examples/lamp.yaml", 11, 6, 5},
-                              ExampleDof{"examples/scissors.yaml", 7, 6, 1},
-                              ExampleDof{"examples/hinged-box.yaml", 7, 6, 1},
-                              ExampleDof{"examples/planar-arm.yaml", 3, 0, 3}}) {
+TEST_CASE("examples: each loads with the DOF it was designed for, nominal geometry consistent",
+          "[dsl]") {
+  for (const ExampleDof& e :
+       {ExampleDof{"examples/lamp.yaml", 11, 6, 5}, ExampleDof{"examples/scissors.yaml", 7, 6, 1},
+        ExampleDof{"examples/hinged-box.yaml", 7, 6, 1},
+        ExampleDof{"examples/planar-arm.yaml", 3, 0, 3}}) {
     DYNAMIC_SECTION(e.file) {
       const ConstraintGraph g = LoadModel(testing::SourcePath(e.file));
       const DofReport r = AnalyzeDof(g, g.nominal);
@@ -176,6 +177,46 @@ TEST_CASE("dsl: includes merge with a prefix, relative to the including file", "
   CHECK((p3.translation - p2 * Eigen::Vector3d(0.25, 0, 0)).norm() < 1e-12);
 }
 
+TEST_CASE("dsl: quaternions and axes are dimensionless, whatever the length unit", "[dsl]") {
+  const ConstraintGraph g = Load(R"yaml(
+units: {length: mm}
+components:
+  a: {pose: {xyz: [100, 0, 0], quaternion: [0.9238795325112867, 0, 0, 0.3826834323650898]}}
+  b: {points: {p: [10, 0, 0]}}
+joints:
+  j: {type: prismatic, parent: a, child: b, axis: [0, 0, 2]}
+)yaml");
+  const Rigid3d a = g.nominal.poses[0];
+  CHECK(a.translation.x() == Approx(0.1));
+  CHECK(a.rotation.angularDistance(
+            Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 4, Eigen::Vector3d::UnitZ()))) < 1e-9);
+  CHECK((g.joints[0].axis - Eigen::Vector3d::UnitZ()).norm() < 1e-12);
+}
+
+TEST_CASE("dsl: include takes a single mapping too", "[dsl]") {
+  const ConstraintGraph g = Load(R"yaml(
+include: {file: parts/planar-link.yaml, prefix: only_}
+)yaml");
+  CHECK(g.FindComponent("only_link") == 0);
+}
+
+TEST_CASE("dsl: a cycle of joints names a joint on the cycle", "[dsl]") {
+  try {
+    Load(R"yaml(
+components: {a: {}, b: {}, c: {}}
+joints:
+  j0: {type: fixed, parent: b, child: c}
+  j1: {type: fixed, parent: a, child: b}
+  j2: {type: fixed, parent: b, child: a}
+)yaml");
+    FAIL("a cycle was accepted");
+  } catch (const InputError& e) {
+    const std::string m = e.message();
+    CHECK((m == "joint 'j1' is part of a cycle of joints" ||
+           m == "joint 'j2' is part of a cycle of joints"));
+  }
+}
+
 TEST_CASE("dsl: fixed forms", "[dsl]") {
   const ConstraintGraph g = Load(R"yaml(
 components:
@@ -194,6 +235,7 @@ fixed:
   CHECK(g.constraints[1].kind == "fixed orientation");
   CHECK(g.constraints[1].residual->dimension() == 3);
   CHECK(g.constraints[2].kind == "fixed point");
+  CHECK(g.constraints[3].name == "fixed_b_z");
   CHECK(MaxNominalResidual(g) < 1e-12);
   const DofReport r = AnalyzeDof(g, g.nominal);
   CHECK(r.dof == 0);

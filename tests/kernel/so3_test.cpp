@@ -35,7 +35,8 @@ TEST_CASE("so3: the autodiff derivative of Exp at zero is the hat operator", "[k
   for (int k = 0; k < 3; ++k) {
     const Eigen::Matrix3d expected = Hat<double>(Eigen::Vector3d::Unit(k));
     for (int r = 0; r < 3; ++r)
-      for (int c = 0; c < 3; ++c) CHECK(R(r, c).derivatives()[k] == Approx(expected(r, c)).margin(1e-15));
+      for (int c = 0; c < 3; ++c)
+        CHECK(R(r, c).derivatives()[k] == Approx(expected(r, c)).margin(1e-15));
   }
 }
 
@@ -43,7 +44,9 @@ TEST_CASE("so3: RotationToQuaternion agrees with Eigen, including near half a tu
   std::mt19937 rng(2);
   for (int i = 0; i < 500; ++i) {
     Eigen::Matrix3d R = RandomRotation(rng);
-    if (i % 5 == 0) R = Eigen::AngleAxisd(M_PI - 1e-7 * (i % 3), Eigen::Vector3d(1, 2, 3).normalized()).toRotationMatrix();
+    if (i % 5 == 0)
+      R = Eigen::AngleAxisd(M_PI - 1e-7 * (i % 3), Eigen::Vector3d(1, 2, 3).normalized())
+              .toRotationMatrix();
     const Vector4<double> q = RotationToQuaternion<double>(R);
     const Eigen::Quaterniond e(R);
     // q and -q are the same rotation.
@@ -85,6 +88,24 @@ TEST_CASE("so3: OrthonormalComplement gives a right-handed orthonormal basis", "
     CHECK(std::abs(e2.dot(a)) < 1e-14);
     CHECK(std::abs(e1.dot(e2)) < 1e-14);
     CHECK((e1.cross(e2) - a).norm() < 1e-14);
+  }
+}
+
+TEST_CASE("so3: OrthonormalComplement is smooth at the directions models are full of", "[kernel]") {
+  const double h = 1e-7;
+  for (const Eigen::Vector3d& d :
+       {Eigen::Vector3d(1, 0, 0), Eigen::Vector3d(0, 1, 0), Eigen::Vector3d(0, 0, 1),
+        Eigen::Vector3d(1, 1, 0), Eigen::Vector3d(0, 1, 1), Eigen::Vector3d(1, 0, 1),
+        Eigen::Vector3d(1, 1, 1), Eigen::Vector3d(-1, 0, 1)}) {
+    for (int k = 0; k < 3; ++k) {
+      const Eigen::Vector3d n = d.normalized();
+      const Eigen::Vector3d m = (d + h * Eigen::Vector3d::Unit(k)).normalized();
+      Eigen::Vector3d a1, a2, b1, b2;
+      OrthonormalComplement<double>(n, &a1, &a2);
+      OrthonormalComplement<double>(m, &b1, &b2);
+      CHECK((a1 - b1).norm() < 10 * h);
+      CHECK((a2 - b2).norm() < 10 * h);
+    }
   }
 }
 
