@@ -35,29 +35,15 @@ class CollinearResidual : public AutoDiffResidual<CollinearResidual> {
   }
 
   std::string Describe(std::span<const std::string> names) const override {
-    std::string s = "collinear(";
-    for (size_t i = 0; i < args_.exprs.size(); ++i) {
-      s += (i ? ", " : "") + cfuse::Describe(*args_.exprs[i], names);
-    }
-    return s + ")";
+    return DescribeCall("collinear", args_.exprs, names);
   }
 
   static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
     RequireVectors(exprs, "collinear", true);
     BoundArgs args = BindArgs(std::move(exprs), ctx, false);
     const std::vector<Eigen::Vector3d> p = NominalValues(args, ctx);
-    const int n = static_cast<int>(p.size());
-    double best = -1;
-    std::array<int, 2> base{0, 1};
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j) {
-        const double dist = (p[j] - p[i]).norm();
-        if (dist > best * (1 + 1e-12)) {
-          best = dist;
-          base = {i, j};
-        }
-      }
-    if (best <= 1e-12) {
+    const auto [base, distance] = FarthestPair(p);
+    if (distance <= 1e-12) {
       throw KindError(
           "collinear: the points coincide at the nominal geometry, so they do not "
           "define a line");

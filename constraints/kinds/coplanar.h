@@ -33,32 +33,16 @@ class CoplanarResidual : public AutoDiffResidual<CoplanarResidual> {
   }
 
   std::string Describe(std::span<const std::string> names) const override {
-    std::string s = "coplanar(";
-    for (size_t i = 0; i < args_.exprs.size(); ++i) {
-      s += (i ? ", " : "") + cfuse::Describe(*args_.exprs[i], names);
-    }
-    return s + ")";
+    return DescribeCall("coplanar", args_.exprs, names);
   }
 
   static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
     RequireVectors(exprs, "coplanar", true);
     BoundArgs args = BindArgs(std::move(exprs), ctx, false);
     const std::vector<Eigen::Vector3d> p = NominalValues(args, ctx);
-    const int n = static_cast<int>(p.size());
-    double best = -1;
-    std::array<int, 3> base{0, 1, 2};
-    double extent = 0;
-    for (int i = 0; i < n; ++i) extent = std::max(extent, (p[i] - p[0]).norm());
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j)
-        for (int k = j + 1; k < n; ++k) {
-          const double area = (p[j] - p[i]).cross(p[k] - p[i]).norm();
-          if (area > best * (1 + 1e-12)) {
-            best = area;
-            base = {i, j, k};
-          }
-        }
-    if (best <= 1e-9 * extent * extent || extent == 0) {
+    const auto [base, area] = LargestTriangle(p);
+    const double extent = Extent(p);
+    if (area <= 1e-9 * extent * extent || extent == 0) {
       throw KindError(
           "coplanar: the points are collinear (or coincide) at the nominal geometry, so they "
           "do not define a plane");

@@ -44,6 +44,53 @@ void RequireVectors(const std::vector<ExprPtr>& exprs, const char* what, bool po
   }
 }
 
+std::string DescribeCall(const char* name, const std::vector<ExprPtr>& exprs,
+                         std::span<const std::string> slot_names) {
+  std::string s = std::string(name) + "(";
+  for (size_t i = 0; i < exprs.size(); ++i) s += (i ? ", " : "") + Describe(*exprs[i], slot_names);
+  return s + ")";
+}
+
+void RequireNonZero(const std::vector<Eigen::Vector3d>& values, const char* what) {
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (values[i].norm() < 1e-12) {
+      throw KindError(
+          fmt::format("{}: argument {} has zero length at the nominal geometry, its "
+                      "direction is undefined",
+                      what, i + 1));
+    }
+  }
+}
+
+std::pair<std::array<int, 3>, double> LargestTriangle(const std::vector<Eigen::Vector3d>& p) {
+  const int n = static_cast<int>(p.size());
+  std::pair<std::array<int, 3>, double> best{{0, 1, 2}, -1.0};
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j)
+      for (int k = j + 1; k < n; ++k) {
+        const double area = (p[j] - p[i]).cross(p[k] - p[i]).norm();
+        if (area > best.second * (1 + 1e-12)) best = {{i, j, k}, area};
+      }
+  return best;
+}
+
+std::pair<std::array<int, 2>, double> FarthestPair(const std::vector<Eigen::Vector3d>& p) {
+  const int n = static_cast<int>(p.size());
+  std::pair<std::array<int, 2>, double> best{{0, 1}, -1.0};
+  for (int i = 0; i < n; ++i)
+    for (int j = i + 1; j < n; ++j) {
+      const double d = (p[j] - p[i]).norm();
+      if (d > best.second * (1 + 1e-12)) best = {{i, j}, d};
+    }
+  return best;
+}
+
+double Extent(const std::vector<Eigen::Vector3d>& p) {
+  double extent = 0;
+  for (const Eigen::Vector3d& q : p) extent = std::max(extent, (q - p[0]).norm());
+  return extent;
+}
+
 double NominalSlack(double margin) { return std::sqrt(std::max(margin, 0.0)); }
 
 }  // namespace cfuse

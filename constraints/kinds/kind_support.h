@@ -4,7 +4,9 @@
 // knows where in the user's file the constraint was written and wraps it into an InputError.
 #pragma once
 
+#include <array>
 #include <memory>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <vector>
@@ -46,6 +48,21 @@ std::vector<Eigen::Vector3d> NominalValues(const BoundArgs& args, const KindCont
 
 // Every argument must be a vector (points or directions); `what` names the kind in messages.
 void RequireVectors(const std::vector<ExprPtr>& exprs, const char* what, bool points_only);
+
+// "name(arg1, arg2, ...)" for relations written as calls.
+std::string DescribeCall(const char* name, const std::vector<ExprPtr>& exprs,
+                         std::span<const std::string> slot_names);
+
+// Refuses arguments that have zero length at the nominal geometry (their direction is
+// undefined there).
+void RequireNonZero(const std::vector<Eigen::Vector3d>& values, const char* what);
+
+// The triple of points spanning the largest triangle (ties to the first in argument order)
+// and its doubled area; the pair farthest apart and its distance; the largest distance from
+// the first point (the group's extent).
+std::pair<std::array<int, 3>, double> LargestTriangle(const std::vector<Eigen::Vector3d>& p);
+std::pair<std::array<int, 2>, double> FarthestPair(const std::vector<Eigen::Vector3d>& p);
+double Extent(const std::vector<Eigen::Vector3d>& p);
 
 // The residual of "x in [mid - half, mid + half]" in product form with slack λ:
 //   1 - ((x - mid) / half)² - λ² = 0,  i.e.  (x - lo)(hi - x) / half² = λ².

@@ -36,14 +36,7 @@ class ParallelResidual : public AutoDiffResidual<ParallelResidual> {
     RequireVectors(exprs, "parallel", false);
     BoundArgs args = BindArgs(std::move(exprs), ctx, false);
     const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
-    for (int i = 0; i < 2; ++i) {
-      if (v[i].norm() < 1e-12) {
-        throw KindError(fmt::format(
-            "parallel: argument {} has zero length at the nominal geometry, its direction is "
-            "undefined",
-            i + 1));
-      }
-    }
+    RequireNonZero(v, "parallel");
     std::vector<int> blocks = args.blocks;
     return {std::make_shared<ParallelResidual>(std::move(args)), std::move(blocks)};
   }

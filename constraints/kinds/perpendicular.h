@@ -28,14 +28,7 @@ class PerpendicularResidual : public AutoDiffResidual<PerpendicularResidual> {
     RequireVectors(exprs, "perpendicular", false);
     BoundArgs args = BindArgs(std::move(exprs), ctx, false);
     const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
-    for (int i = 0; i < 2; ++i) {
-      if (v[i].norm() < 1e-12) {
-        throw KindError(fmt::format(
-            "perpendicular: argument {} has zero length at the nominal geometry, its direction "
-            "is undefined",
-            i + 1));
-      }
-    }
+    RequireNonZero(v, "perpendicular");
     std::vector<int> blocks = args.blocks;
     return {std::make_shared<PerpendicularResidual>(std::move(args)), std::move(blocks)};
   }

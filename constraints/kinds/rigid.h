@@ -62,11 +62,7 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
   }
 
   std::string Describe(std::span<const std::string> names) const override {
-    std::string s = "rigid(";
-    for (size_t i = 0; i < args_.exprs.size(); ++i) {
-      s += (i ? ", " : "") + cfuse::Describe(*args_.exprs[i], names);
-    }
-    return s + ")";
+    return DescribeCall("rigid", args_.exprs, names);
   }
 
   static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
@@ -79,8 +75,7 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
     BoundArgs args = BindArgs(std::move(exprs), ctx, false);
     const std::vector<Eigen::Vector3d> p = NominalValues(args, ctx);
     const int n = static_cast<int>(p.size());
-    double extent = 0;
-    for (int i = 0; i < n; ++i) extent = std::max(extent, (p[i] - p[0]).norm());
+    const double extent = Extent(p);
     if (extent <= 1e-12) throw KindError("rigid: the points coincide at the nominal geometry");
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j)
@@ -93,29 +88,17 @@ class RigidResidual : public AutoDiffResidual<RigidResidual> {
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j)
         candidates.push_back({Row::Kind::kDistance, i, j, 0, 0, (p[i] - p[j]).norm()});
-    double best = -1;
-    std::array<int, 3> t{0, 1, 2};
-    for (int i = 0; i < n; ++i)
-      for (int j = i + 1; j < n; ++j)
-        for (int k = j + 1; k < n; ++k) {
-          const double area = (p[j] - p[i]).cross(p[k] - p[i]).norm();
-          if (area > best * (1 + 1e-12)) {
-            best = area;
-            t = {i, j, k};
-          }
-        }
-    if (n >= 4 && best > 1e-9 * extent * extent) {
+    const auto [t, area] = LargestTriangle(p);
+    const bool collinear = area <= 1e-9 * extent * extent;
+    if (n >= 4 && !collinear) {
       for (int l = 0; l < n; ++l) {
         if (l == t[0] || l == t[1] || l == t[2]) continue;
         const double v = (p[t[1]] - p[t[0]]).cross(p[t[2]] - p[t[0]]).dot(p[l] - p[t[0]]);
         candidates.push_back({Row::Kind::kVolume, t[0], t[1], t[2], l, v});
       }
-    } else if (n >= 3 && best <= 1e-9 * extent * extent) {
-      // Collinear: offsets from the line through the farthest pair.
-      int a = 0, b = 1;
-      for (int i = 0; i < n; ++i)
-        for (int j = i + 1; j < n; ++j)
-          if ((p[j] - p[i]).norm() > (p[b] - p[a]).norm()) a = i, b = j;
+    } else if (n >= 3 && collinear) {
+      // Offsets from the line through the farthest pair.
+      const auto [a, b] = FarthestPair(p).first;
       Eigen::Vector3d e1, e2;
       OrthonormalComplement<double>((p[b] - p[a]).normalized(), &e1, &e2);
       for (int l = 0; l < n; ++l) {
