@@ -75,10 +75,18 @@ void PrintSummary(const ConstraintGraph& graph, const ModelSummary& s, std::ostr
   out << fmt::format("constraints: {}{}\n", graph.constraints.size(),
                      kinds.empty() ? "" : " (" + kinds + ")");
   out << fmt::format("equations: {}   slack variables: {}\n", s.dof.equations, s.slacks);
-  out << fmt::format("state dimension: {}   constraint Jacobian rank: {}\n", s.dof.state_dim,
-                     s.dof.rank);
-  out << fmt::format("DOF: {} ({} rigid-body + {} internal)\n", s.dof.dof, s.dof.rigid_body,
-                     s.dof.internal);
+  if (!s.dof.computed) {
+    out << fmt::format("state dimension: {}\n", s.dof.state_dim);
+    out << fmt::format(
+        "DOF: not computed (the dense rank analysis is limited to a state "
+        "dimension of {})\n",
+        kMaxDofStateDim);
+  } else {
+    out << fmt::format("state dimension: {}   constraint Jacobian rank: {}\n", s.dof.state_dim,
+                       s.dof.rank);
+    out << fmt::format("DOF: {} ({} rigid-body + {} internal)\n", s.dof.dof, s.dof.rigid_body,
+                       s.dof.internal);
+  }
   for (const auto& [name, rows] : s.dof.redundant) {
     const Constraint& c = graph.constraints[graph.FindConstraint(name)];
     out << fmt::format("note: constraint '{}' ({}) is redundant in {} of its {} equation{}\n", name,
@@ -119,8 +127,14 @@ nlohmann::json SummaryJson(const ConstraintGraph& graph, const ModelSummary& s) 
   j["equations"] = s.dof.equations;
   j["slack_variables"] = s.slacks;
   j["state_dimension"] = s.dof.state_dim;
-  j["rank"] = s.dof.rank;
-  j["dof"] = {{"total", s.dof.dof}, {"rigid_body", s.dof.rigid_body}, {"internal", s.dof.internal}};
+  if (s.dof.computed) {
+    j["rank"] = s.dof.rank;
+    j["dof"] = {
+        {"total", s.dof.dof}, {"rigid_body", s.dof.rigid_body}, {"internal", s.dof.internal}};
+  } else {
+    j["rank"] = nullptr;
+    j["dof"] = nullptr;
+  }
   j["redundant"] = nlohmann::json::array();
   for (const auto& [name, rows] : s.dof.redundant)
     j["redundant"].push_back({{"constraint", name}, {"rows", rows}});

@@ -18,12 +18,35 @@ int NumericalRank(const Eigen::MatrixXd& A) {
 
 DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {
   DofReport report;
+  report.state_dim = graph.tangent_dim();
+  report.equations = graph.num_equations();
+  if (report.state_dim > kMaxDofStateDim) return report;
+  report.computed = true;
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   EvaluateConstraints(graph, at, &r, &J);
-  report.state_dim = static_cast<int>(J.cols());
-  report.equations = static_cast<int>(J.rows());
-  report.rank = NumericalRank(J);
+
+  // Rank and redundancy in one pass: Gram-Schmidt over the rows in constraint order
+  // (re-orthogonalised), so a constraint is redundant in the rows that add no new direction.
+  std::vector<Eigen::VectorXd> basis;
+  int row = 0;
+  for (const Constraint& c : graph.constraints) {
+    const int dim = c.residual->dimension();
+    int added = 0;
+    for (int i = 0; i < dim; ++i, ++row) {
+      Eigen::VectorXd v = J.row(row).transpose();
+      const double norm0 = v.norm();
+      if (norm0 == 0) continue;
+      for (int pass = 0; pass < 2; ++pass)
+        for (const Eigen::VectorXd& q : basis) v -= q.dot(v) * q;
+      if (v.norm() > kRankTolerance * norm0) {
+        basis.push_back(v.normalized());
+        ++added;
+      }
+    }
+    if (added < dim) report.redundant.emplace_back(c.name, dim - added);
+  }
+  report.rank = static_cast<int>(basis.size());
   report.dof = report.state_dim - report.rank;
 
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(report.state_dim, 6);  // columns: ω, v
@@ -42,16 +65,6 @@ DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {
   }
   report.rigid_body = NumericalRank(G) - NumericalRank(J * G);
   report.internal = report.dof - report.rigid_body;
-
-  // Redundancy: the rank added by each constraint's rows, in order.
-  int row = 0, rank_so_far = 0;
-  for (const Constraint& c : graph.constraints) {
-    const int dim = c.residual->dimension();
-    const int rank = NumericalRank(J.topRows(row + dim));
-    if (rank - rank_so_far < dim) report.redundant.emplace_back(c.name, dim - (rank - rank_so_far));
-    rank_so_far = rank;
-    row += dim;
-  }
   return report;
 }
 

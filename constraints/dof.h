@@ -19,19 +19,24 @@
 namespace cfuse {
 
 struct DofReport {
-  int state_dim = 0;   // n
-  int equations = 0;   // m
-  int rank = 0;        // rank of J
-  int dof = 0;         // n - rank
-  int rigid_body = 0;  // free motions of the whole object
-  int internal = 0;    // dof - rigid_body
+  bool computed = false;  // false when the model is beyond kMaxDofStateDim
+  int state_dim = 0;      // n
+  int equations = 0;      // m
+  int rank = 0;           // rank of J
+  int dof = 0;            // n - rank
+  int rigid_body = 0;     // free motions of the whole object
+  int internal = 0;       // dof - rigid_body
   // Constraints whose rows add no rank to those before them (in graph order), entirely or
   // partly: name and the number of redundant rows.
   std::vector<std::pair<std::string, int>> redundant;
 };
 
-// Relative threshold on singular values below which a direction counts as rank-deficient.
+// Relative threshold below which a direction counts as rank-deficient: on singular values
+// (relative to the largest), and on the part of a Jacobian row independent of the rows before
+// it (relative to the row's norm).
 inline constexpr double kRankTolerance = 1e-9;
+// The analysis is dense, O(m · rank · n): beyond this state dimension it is not attempted.
+inline constexpr int kMaxDofStateDim = 2000;
 
 DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at);
 

@@ -64,7 +64,8 @@ int ModelBuilder::AddBlock(BlockKind kind, const std::string& name) {
   Block b;
   b.kind = kind;
   b.name = name;
-  b.tangent_offset = graph_.tangent_dim();
+  b.tangent_offset = tangent_dim_;
+  tangent_dim_ += TangentDim(kind);
   switch (kind) {
     case BlockKind::kPoint:
       b.index = static_cast<int>(graph_.nominal.points.size());
@@ -83,9 +84,42 @@ int ModelBuilder::AddBlock(BlockKind kind, const std::string& name) {
   return static_cast<int>(graph_.blocks.size()) - 1;
 }
 
+namespace {
+int Lookup(const std::unordered_map<std::string, int>& index, const std::string& name) {
+  const auto it = index.find(name);
+  return it == index.end() ? -1 : it->second;
+}
+}  // namespace
+
+int ModelBuilder::FindComponent(const std::string& name) const {
+  return Lookup(component_index_, name);
+}
+int ModelBuilder::FindJoint(const std::string& name) const { return Lookup(joint_index_, name); }
+int ModelBuilder::FindConstraint(const std::string& name) const {
+  return Lookup(constraint_index_, name);
+}
+
+const std::vector<std::pair<int, int>>& ModelBuilder::FindBarePoint(const std::string& name) const {
+  static const std::vector<std::pair<int, int>> kNone;
+  const auto it = bare_points_.find(name);
+  return it == bare_points_.end() ? kNone : it->second;
+}
+
+void ModelBuilder::IndexComponent(int component) {
+  const Component& c = graph_.components[component];
+  component_index_[c.name] = component;
+  if (!c.rigid) bare_points_[c.name].emplace_back(component, -1);
+  for (size_t i = 0; i < c.points.size(); ++i) {
+    bare_points_[c.points[i].name].emplace_back(component, static_cast<int>(i));
+  }
+}
+
 void ModelBuilder::RequireUniqueComponent(const std::string& name,
                                           const SourceLocation& where) const {
-  const int existing = graph_.FindComponent(name);
+  if (static_cast<int>(graph_.components.size()) >= kMaxComponents) {
+    throw InputError(where, fmt::format("the model has more than {} components", kMaxComponents));
+  }
+  const int existing = FindComponent(name);
   if (existing >= 0) {
     throw InputError(where, fmt::format("duplicate component name '{}', first defined{}", name,
                                         Located(graph_.components[existing].where)));
@@ -94,7 +128,10 @@ void ModelBuilder::RequireUniqueComponent(const std::string& name,
 
 void ModelBuilder::RequireUniqueConstraint(const std::string& name,
                                            const SourceLocation& where) const {
-  const int existing = graph_.FindConstraint(name);
+  if (static_cast<int>(graph_.constraints.size()) >= kMaxConstraints) {
+    throw InputError(where, fmt::format("the model has more than {} constraints", kMaxConstraints));
+  }
+  const int existing = FindConstraint(name);
   if (existing >= 0) {
     throw InputError(where, fmt::format("duplicate constraint name '{}', first defined{}", name,
                                         Located(graph_.constraints[existing].where)));
@@ -112,6 +149,7 @@ int ModelBuilder::AddPointComponent(const std::string& name, const Eigen::Vector
   c.where = where;
   graph_.nominal.points[graph_.blocks[c.block].index] = position;
   graph_.components.push_back(std::move(c));
+  IndexComponent(static_cast<int>(graph_.components.size()) - 1);
   return static_cast<int>(graph_.components.size()) - 1;
 }
 
@@ -127,6 +165,7 @@ int ModelBuilder::AddRigidComponent(const std::string& name,
   c.where = where;
   graph_.components.push_back(std::move(c));
   const int index = static_cast<int>(graph_.components.size()) - 1;
+  IndexComponent(index);
   SetNominalPose(index, world_from_component.value_or(Rigid3d()));
   graph_.components[index].pose_given = world_from_component.has_value();
   return index;
@@ -154,7 +193,12 @@ int ModelBuilder::AddFeaturePoint(int component, const std::string& name,
                                         "defined{}",
                                         name, c.name, Located(c.points[existing].where)));
   }
+  if (num_feature_points_ >= kMaxFeaturePoints) {
+    throw InputError(where, fmt::format("the model has more than {} points", kMaxFeaturePoints));
+  }
+  ++num_feature_points_;
   c.points.push_back({name, position, where});
+  bare_points_[name].emplace_back(component, static_cast<int>(c.points.size()) - 1);
   return static_cast<int>(c.points.size()) - 1;
 }
 
@@ -199,10 +243,10 @@ void ModelBuilder::AddFace(int component, const std::string& name, std::vector<i
 
 int ModelBuilder::AddJoint(const JointSpec& spec) {
   RequireIdentifier(spec.name, "joint", spec.where);
-  if (graph_.FindJoint(spec.name) >= 0) {
+  if (FindJoint(spec.name) >= 0) {
     throw InputError(spec.where,
                      fmt::format("duplicate joint name '{}', first defined{}", spec.name,
-                                 Located(graph_.joints[graph_.FindJoint(spec.name)].where)));
+                                 Located(graph_.joints[FindJoint(spec.name)].where)));
   }
   RequireUniqueConstraint(spec.name, spec.where);
   const Component& parent = graph_.components.at(spec.parent);
@@ -313,6 +357,7 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
                           slack};
     joint.limit_constraint = AddConstraint(name, "joint limit", std::move(limit), spec.where);
   }
+  joint_index_[joint.name] = static_cast<int>(graph_.joints.size());
   graph_.joints.push_back(std::move(joint));
   return static_cast<int>(graph_.joints.size()) - 1;
 }
@@ -328,10 +373,10 @@ void ModelBuilder::SetSlackNominal(int slack_block, double value) {
 }
 
 std::string ModelBuilder::UniqueConstraintName(const std::string& preferred) const {
-  if (graph_.FindConstraint(preferred) < 0) return preferred;
+  if (FindConstraint(preferred) < 0) return preferred;
   for (int i = 2;; ++i) {
     const std::string name = fmt::format("{}_{}", preferred, i);
-    if (graph_.FindConstraint(name) < 0) return name;
+    if (FindConstraint(name) < 0) return name;
   }
 }
 
@@ -356,6 +401,7 @@ int ModelBuilder::AddConstraint(const std::string& name, const std::string& kind
                                         "exactly 0 or 180 degrees)",
                                         name, graph_.Describe(c)));
   }
+  constraint_index_[c.name] = static_cast<int>(graph_.constraints.size());
   graph_.constraints.push_back(std::move(c));
   return static_cast<int>(graph_.constraints.size()) - 1;
 }
@@ -380,24 +426,29 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   const int block0 = static_cast<int>(graph_.blocks.size());
   const int component0 = static_cast<int>(graph_.components.size());
   const int constraint0 = static_cast<int>(graph_.constraints.size());
+  if (graph_.components.size() + other.components.size() > size_t(kMaxComponents) ||
+      graph_.constraints.size() + other.constraints.size() > size_t(kMaxConstraints)) {
+    throw InputError(where, fmt::format("including '{}' makes the model larger than {} components "
+                                        "or {} constraints",
+                                        other.source, kMaxComponents, kMaxConstraints));
+  }
   for (const Component& c : other.components) {
-    if (graph_.FindComponent(prefix + c.name) >= 0) {
+    if (FindComponent(prefix + c.name) >= 0) {
       throw InputError(
-          where,
-          fmt::format("including '{}' defines component '{}'{} again, first "
-                      "defined{}",
-                      other.source, prefix + c.name, Located(c.where),
-                      Located(graph_.components[graph_.FindComponent(prefix + c.name)].where)));
+          where, fmt::format("including '{}' defines component '{}'{} again, first "
+                             "defined{}",
+                             other.source, prefix + c.name, Located(c.where),
+                             Located(graph_.components[FindComponent(prefix + c.name)].where)));
     }
   }
   for (const Joint& j : other.joints) {
-    if (graph_.FindJoint(prefix + j.name) >= 0) {
+    if (FindJoint(prefix + j.name) >= 0) {
       throw InputError(where, fmt::format("including '{}' defines joint '{}'{} again", other.source,
                                           prefix + j.name, Located(j.where)));
     }
   }
   for (const Constraint& c : other.constraints) {
-    if (graph_.FindConstraint(prefix + c.name) >= 0) {
+    if (FindConstraint(prefix + c.name) >= 0) {
       throw InputError(where, fmt::format("including '{}' defines constraint '{}'{} again",
                                           other.source, prefix + c.name, Located(c.where)));
     }
@@ -420,12 +471,19 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   for (Component c : other.components) {
     c.name = prefix + c.name;
     c.block += block0;
+    if (c.rigid && num_feature_points_ + static_cast<int>(c.points.size()) > kMaxFeaturePoints) {
+      throw InputError(where, fmt::format("including '{}' makes the model larger than {} points",
+                                          other.source, kMaxFeaturePoints));
+    }
+    num_feature_points_ += static_cast<int>(c.points.size());
     graph_.components.push_back(std::move(c));
+    IndexComponent(static_cast<int>(graph_.components.size()) - 1);
   }
   for (Constraint c : other.constraints) {
     c.name = prefix + c.name;
     for (int& b : c.blocks) b += block0;
     if (c.slack_block >= 0) c.slack_block += block0;
+    constraint_index_[c.name] = static_cast<int>(graph_.constraints.size());
     graph_.constraints.push_back(std::move(c));
   }
   for (Joint j : other.joints) {
@@ -434,6 +492,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
     j.child += component0;
     j.constraint += constraint0;
     if (j.limit_constraint >= 0) j.limit_constraint += constraint0;
+    joint_index_[j.name] = static_cast<int>(graph_.joints.size());
     graph_.joints.push_back(std::move(j));
   }
 }

@@ -9,6 +9,7 @@
 
 #include <optional>
 #include <string>
+#include <unordered_map>
 
 #include "constraints/graph.h"
 #include "constraints/kinds/kind_support.h"
@@ -31,6 +32,19 @@ class ModelBuilder {
   ModelBuilder(std::string model_name, std::string source);
 
   const ConstraintGraph& graph() const { return graph_; }
+
+  // Resource bounds on one model (includes counted in), refused with an InputError beyond.
+  static constexpr int kMaxComponents = 100000;
+  static constexpr int kMaxFeaturePoints = 1000000;
+  static constexpr int kMaxConstraints = 200000;
+
+  // Hashed look-ups by name; -1 if absent.
+  int FindComponent(const std::string& name) const;
+  int FindJoint(const std::string& name) const;
+  int FindConstraint(const std::string& name) const;
+  // What a bare point name can mean: (component, feature point index), the index -1 for a
+  // single-point component. Empty if nothing has that name.
+  const std::vector<std::pair<int, int>>& FindBarePoint(const std::string& name) const;
 
   // Names are identifiers: [A-Za-z_][A-Za-z0-9_]*. `what` names the item in messages.
   static bool IsIdentifier(std::string_view name);
@@ -84,7 +98,13 @@ class ModelBuilder {
   void RequireUniqueComponent(const std::string& name, const SourceLocation& where) const;
   void RequireUniqueConstraint(const std::string& name, const SourceLocation& where) const;
 
+  void IndexComponent(int component);
+
   ConstraintGraph graph_;
+  std::unordered_map<std::string, int> component_index_, joint_index_, constraint_index_;
+  std::unordered_map<std::string, std::vector<std::pair<int, int>>> bare_points_;
+  int num_feature_points_ = 0;
+  int tangent_dim_ = 0;
 };
 
 }  // namespace cfuse

@@ -83,13 +83,17 @@ void Lowerer::UnifyZero(ExprPtr* a, const ExprPtr& b) {
 
 ExprPtr Lowerer::LowerRef(const AstNode& node) const {
   const ConstraintGraph& g = builder_.graph();
-  std::vector<std::string> component_names;
-  for (const Component& c : g.components) component_names.push_back(c.name);
+  // Candidate lists for "did you mean" are built only on the error paths.
+  auto component_names = [&] {
+    std::vector<std::string> names;
+    for (const Component& c : g.components) names.push_back(c.name);
+    return names;
+  };
   if (!node.member.empty()) {
-    const int ci = g.FindComponent(node.name);
+    const int ci = builder_.FindComponent(node.name);
     if (ci < 0) {
       Fail(node.span, fmt::format("unknown component '{}'{}", node.name,
-                                  DidYouMean(node.name, component_names)));
+                                  DidYouMean(node.name, component_names())));
     }
     const Component& c = g.components[ci];
     if (!c.rigid) {
@@ -107,27 +111,19 @@ ExprPtr Lowerer::LowerRef(const AstNode& node) const {
     return MakeFeatureRef(c.block, c.points[pi].position, c.points[pi].name);
   }
   // A bare name: a single-point component, or a feature point whose name is unique.
-  std::vector<std::pair<int, int>> matches;  // (component, point or -1)
-  std::vector<std::string> all_points;
-  for (size_t ci = 0; ci < g.components.size(); ++ci) {
-    const Component& c = g.components[ci];
-    if (!c.rigid) {
-      all_points.push_back(c.name);
-      if (c.name == node.name) matches.emplace_back(ci, -1);
-      continue;
-    }
-    for (size_t pi = 0; pi < c.points.size(); ++pi) {
-      all_points.push_back(c.points[pi].name);
-      if (c.points[pi].name == node.name) matches.emplace_back(ci, pi);
-    }
-  }
+  const std::vector<std::pair<int, int>>& matches = builder_.FindBarePoint(node.name);
   if (matches.empty()) {
-    const int ci = g.FindComponent(node.name);
+    const int ci = builder_.FindComponent(node.name);
     if (ci >= 0) {
       const Component& c = g.components[ci];
       Fail(node.span, fmt::format("'{}' is a rigid component, not a point: name one of its points, "
                                   "e.g. {}.{}",
                                   c.name, c.name, c.points.empty() ? "p" : c.points[0].name));
+    }
+    std::vector<std::string> all_points;
+    for (const Component& c : g.components) {
+      if (!c.rigid) all_points.push_back(c.name);
+      for (const FeaturePoint& p : c.points) all_points.push_back(p.name);
     }
     Fail(node.span,
          fmt::format("unknown point '{}'{}", node.name, DidYouMean(node.name, all_points)));

@@ -230,8 +230,10 @@ struct FileUnits {
 
 class Loader {
  public:
-  Loader(const LoadOptions& options, std::vector<std::string>* include_stack)
-      : options_(options), stack_(include_stack) {}
+  // `include_stack` holds the files being read (for cycles and depth); `files_read` counts
+  // every file of this load (for include fan-out).
+  Loader(const LoadOptions& options, std::vector<std::string>* include_stack, int* files_read)
+      : options_(options), stack_(include_stack), files_read_(files_read) {}
 
   ConstraintGraph Load(const std::string& display, const std::string& canonical,
                        const std::string& text, const std::string& base_dir);
@@ -252,6 +254,7 @@ class Loader {
 
   const LoadOptions& options_;
   std::vector<std::string>* stack_;
+  int* files_read_;
   std::unique_ptr<ModelBuilder> builder_;
   FileUnits units_;
 };
@@ -358,6 +361,10 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
 
     ConstraintGraph included;
     if (ext == ".yaml" || ext == ".yml") {
+      if (++*files_read_ > kMaxIncludedFiles) {
+        throw InputError(
+            where, fmt::format("the model includes more than {} files in all", kMaxIncludedFiles));
+      }
       if (static_cast<int>(stack_->size()) >= kMaxIncludeDepth) {
         throw InputError(where,
                          fmt::format("includes are nested more than {} deep", kMaxIncludeDepth));
@@ -372,7 +379,7 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
         }
       }
       const std::string text = ReadModelFile(display, where);
-      Loader child(options_, stack_);
+      Loader child(options_, stack_, files_read_);
       included = child.Load(display, canonical, text, fs::path(display).parent_path().string());
     } else {
       const auto handler = options_.include_handlers.find(ext);
@@ -458,7 +465,7 @@ void Loader::ReadPoints(const Document& doc, const YAML::Node& node) {
 int Loader::RequireComponent(const Document& doc, const YAML::Node& name_node,
                              const char* role) const {
   const std::string name = doc.Scalar(name_node, role);
-  const int c = builder_->graph().FindComponent(name);
+  const int c = builder_->FindComponent(name);
   if (c < 0) {
     std::vector<std::string> names;
     for (const Component& comp : builder_->graph().components) names.push_back(comp.name);
@@ -688,7 +695,7 @@ void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
         name = doc.Scalar(n, "a constraint name");
         ModelBuilder::RequireIdentifier(name, "constraint", doc.Loc(n));
         // Refused here, at the name, rather than where the constraint's expression is.
-        if (const int k = builder_->graph().FindConstraint(name); k >= 0) {
+        if (const int k = builder_->FindConstraint(name); k >= 0) {
           const SourceLocation& first = builder_->graph().constraints[k].where;
           doc.Fail(n, fmt::format("duplicate constraint name '{}', first defined{}", name,
                                   first.known() ? " (at " + first.ToString() + ")" : ""));
@@ -748,14 +755,16 @@ ConstraintGraph LoadModel(const std::string& path, const LoadOptions& options) {
   std::error_code ec;
   const std::string canonical = fs::weakly_canonical(path, ec).string();
   std::vector<std::string> stack;
-  Loader loader(options, &stack);
+  int files_read = 0;
+  Loader loader(options, &stack, &files_read);
   return loader.Load(path, canonical, text, fs::path(path).parent_path().string());
 }
 
 ConstraintGraph LoadModelFromString(std::string_view text, const std::string& display_name,
                                     const std::string& base_directory, const LoadOptions& options) {
   std::vector<std::string> stack;
-  Loader loader(options, &stack);
+  int files_read = 0;
+  Loader loader(options, &stack, &files_read);
   return loader.Load(display_name, display_name, std::string(text), base_directory);
 }
 

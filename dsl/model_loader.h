@@ -30,6 +30,8 @@ struct LoadOptions {
 // Resource bounds on model files, refused with an InputError beyond them.
 inline constexpr size_t kMaxModelFileBytes = 16u << 20;
 inline constexpr int kMaxIncludeDepth = 16;
+inline constexpr int kMaxIncludedFiles = 256;  // in all, counting repeated includes
+// Model size limits (components, points, constraints) are ModelBuilder's.
 
 ConstraintGraph LoadModel(const std::string& path, const LoadOptions& options = {});
 

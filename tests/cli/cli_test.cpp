@@ -59,6 +59,29 @@ TEST_CASE("cli: check warns about a face that is not planar", "[cli]") {
         std::string::npos);
 }
 
+TEST_CASE("cli: a model beyond the dense DOF analysis still loads and is summarised", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const fs::path model = dir / "chain.yaml";
+  {
+    std::ofstream out(model);
+    out << "points:\n";
+    for (int i = 0; i < 1000; ++i)
+      out << "  p" << i << ": [" << i * 0.01 << ", 0, " << (i % 3) * 0.01 << "]\n";
+    out << "constraints:\n";
+    for (int i = 0; i + 1 < 1000; ++i)
+      out << "  - distance(p" << i << ", p" << i + 1 << ") == nominal\n";
+  }
+  std::ostringstream out, err;
+  REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
+  CHECK(out.str().find("state dimension: 3000\n") != std::string::npos);
+  CHECK(out.str().find("DOF: not computed (the dense rank analysis is limited to a state "
+                       "dimension of 2000)") != std::string::npos);
+  std::ostringstream json, err2;
+  REQUIRE(RunCheck({model.string(), true}, json, err2) == 0);
+  CHECK(nlohmann::json::parse(json.str())["dof"].is_null());
+}
+
 TEST_CASE("cli: bad input exits with status 2 and one located message", "[cli]") {
   std::ostringstream out, err;
   CHECK(RunCheck({"no/such/model.yaml", false}, out, err) == 2);

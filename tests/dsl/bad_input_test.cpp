@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "constraints/model_builder.h"
 #include "dsl/model_loader.h"
 #include "kernel/error.h"
 #include "test_util.h"
@@ -335,6 +336,32 @@ TEST_CASE("bad input: binary, non-UTF-8 and oversized files", "[dsl][bad]") {
             .lexically_normal()
             .string();
     CheckError(top, deepest, 1, 10, "includes are nested more than 16 deep");
+  }
+  SECTION("an include fan-out beyond the file limit") {
+    // Each level includes the next four times: 4^5 files if nothing stopped it.
+    for (int i = 0; i < 5; ++i) {
+      std::string text = "include:\n";
+      for (int k = 0; k < 4; ++k) {
+        text += "  - {file: fan" + std::to_string(i + 1) + ".yaml, prefix: k" + std::to_string(k) +
+                "_}\n";
+      }
+      dir.Write("fan" + std::to_string(i) + ".yaml", text);
+    }
+    dir.Write("fan5.yaml", "points: {p: [0, 0, 0]}\n");
+    const std::string top = dir.Write("fan_top.yaml", "include: fan0.yaml\n");
+    const std::optional<InputError> e = LoadError(top);
+    REQUIRE(e);
+    CHECK(e->message() == "the model includes more than 256 files in all");
+    CHECK(e->where().line > 0);
+  }
+  SECTION("more components than the model limit") {
+    std::string text = "points:\n";
+    for (int i = 0; i <= cfuse::ModelBuilder::kMaxComponents; ++i) {
+      text += "  p" + std::to_string(i) + ": [0, 0, 0]\n";
+    }
+    const std::string path = dir.Write("many.yaml", text);
+    CheckError(path, path, cfuse::ModelBuilder::kMaxComponents + 2, 3,
+               "the model has more than 100000 components");
   }
   SECTION("an empty file included") {
     const std::string empty = dir.Write("empty.yaml", "");
