@@ -2,6 +2,8 @@
 // with and without their autodiff Jacobians, the rank-based DOF analysis.
 #include <benchmark/benchmark.h>
 
+#include <fmt/format.h>
+
 #include "constraints/dof.h"
 #include "constraints/evaluate.h"
 #include "dsl/model_loader.h"
@@ -44,6 +46,18 @@ void BM_LampDofAnalysis(benchmark::State& state) {
   for (auto _ : state) benchmark::DoNotOptimize(AnalyzeDof(g, g.nominal));
 }
 BENCHMARK(BM_LampDofAnalysis)->Unit(benchmark::kMillisecond);
+
+// A chain of n single points held by n - 1 distances: loading scales linearly.
+void BM_LoadPointChain(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  std::string text = "points:\n";
+  for (int i = 0; i < n; ++i) text += fmt::format("  p{}: [{}, {}, 0]\n", i, 0.01 * i, 0.01 * (i % 3));
+  text += "constraints:\n";
+  for (int i = 0; i + 1 < n; ++i) text += fmt::format("  - distance(p{}, p{}) == nominal\n", i, i + 1);
+  for (auto _ : state) benchmark::DoNotOptimize(dsl::LoadModelFromString(text, "chain.yaml", "."));
+  state.SetComplexityN(n);
+}
+BENCHMARK(BM_LoadPointChain)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)->Complexity();
 
 // One revolute joint (5 x 12 Jacobian): the typical articulated-model row block.
 void BM_RevoluteJointJacobian(benchmark::State& state) {
