@@ -393,9 +393,7 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
       }
       included = handler->second(display, where);
     }
-    const int before = static_cast<int>(builder_->graph().components.size());
     builder_->Merge(included, prefix, where);
-    (void)before;
   }
 }
 

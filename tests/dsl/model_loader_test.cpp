@@ -3,9 +3,12 @@
 #include "dsl/model_loader.h"
 
 #include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
 
 #include "constraints/dof.h"
 #include "constraints/evaluate.h"
+#include "constraints/model_builder.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {
@@ -198,6 +201,47 @@ TEST_CASE("dsl: include takes a single mapping too", "[dsl]") {
 include: {file: parts/planar-link.yaml, prefix: only_}
 )yaml");
   CHECK(g.FindComponent("only_link") == 0);
+}
+
+TEST_CASE("dsl: other formats come in through include handlers (the URDF hook)", "[dsl]") {
+  namespace fs = std::filesystem;
+  const fs::path dir = fs::temp_directory_path() / "cfuse_include_handler_test";
+  fs::create_directories(dir);
+  std::ofstream(dir / "robot.fake") << "anything the importer reads\n";
+  std::ofstream(dir / "broken.fake") << "\n";
+  LoadOptions options;
+  std::vector<std::string> asked;
+  options.include_handlers[".fake"] = [&](const std::string& path, const SourceLocation& where) {
+    asked.push_back(path);
+    if (path.find("broken") != std::string::npos) {
+      throw InputError(SourceLocation(path, 0, 0, "link 'base'"), "made-up importer error");
+    }
+    CHECK(where.line == 3);
+    ModelBuilder b("robot", path);
+    const int base = b.AddRigidComponent("base", Rigid3d(), SourceLocation(path));
+    b.AddFeaturePoint(base, "origin", Eigen::Vector3d::Zero(), SourceLocation(path));
+    return std::move(b).Build();
+  };
+  const ConstraintGraph g = LoadModelFromString(R"yaml(
+include:
+  - {file: robot.fake, prefix: r_}
+points: {marker: [0, 0, 0.1]}
+constraints:
+  - distance(r_base.origin, marker) == nominal
+)yaml",
+                                                "model.yaml", dir.string(), options);
+  REQUIRE(asked.size() == 1);
+  CHECK(asked[0] == (dir / "robot.fake").lexically_normal().string());
+  CHECK(g.FindComponent("r_base") == 0);
+  CHECK(g.Describe(g.constraints[0]) == "distance(r_base.origin, marker) == 0.1 m");
+
+  try {
+    LoadModelFromString("include: broken.fake\n", "model.yaml", dir.string(), options);
+    FAIL("the importer's error was swallowed");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()) == (dir / "broken.fake").lexically_normal().string() +
+                                       ": link 'base': error: made-up importer error");
+  }
 }
 
 TEST_CASE("dsl: a cycle of joints names a joint on the cycle", "[dsl]") {
