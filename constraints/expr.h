@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "constraints/functions.h"
-#include "constraints/residual.h"
+#include "kernel/residual.h"
 
 namespace cfuse {
 

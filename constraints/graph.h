@@ -17,8 +17,8 @@
 #include <string_view>
 #include <vector>
 
-#include "constraints/residual.h"
-#include "constraints/values.h"
+#include "kernel/residual.h"
+#include "kernel/values.h"
 #include "kernel/error.h"
 #include "kernel/rigid3.h"
 

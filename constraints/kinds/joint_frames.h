@@ -5,7 +5,7 @@
 // `axis` is the unit joint axis in the joint frame; (e1, e2, axis) is right-handed.
 #pragma once
 
-#include "constraints/residual.h"
+#include "kernel/residual.h"
 #include "kernel/rigid3.h"
 
 namespace cfuse {

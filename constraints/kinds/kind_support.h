@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "constraints/expr.h"
-#include "constraints/residual.h"
-#include "constraints/values.h"
+#include "kernel/residual.h"
+#include "kernel/values.h"
 
 namespace cfuse {
 

@@ -1,4 +1,4 @@
-#include "constraints/residual.h"
+#include "kernel/residual.h"
 
 namespace cfuse {
 

@@ -1,4 +1,4 @@
-#include "constraints/values.h"
+#include "kernel/values.h"
 
 #include "kernel/check.h"
 #include "kernel/so3.h"

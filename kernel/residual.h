@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-#include "constraints/values.h"
+#include "kernel/values.h"
 #include "kernel/jet.h"
 #include "kernel/so3.h"
 
