@@ -17,9 +17,9 @@
 #include <string>
 #include <vector>
 
-#include "kernel/values.h"
 #include "kernel/jet.h"
 #include "kernel/so3.h"
+#include "kernel/values.h"
 
 namespace cfuse {
 

@@ -47,6 +47,18 @@ Matrix3<T> ExpSO3(const Vector3<T>& w) {
   return I + (sin(theta) / theta) * W + ((T(1) - cos(theta)) / theta_sq) * W * W;
 }
 
+// The right Jacobian of SO(3): Exp(w + d) ≈ Exp(w) Exp(Jr(w) d) for small d,
+//   Jr(w) = I - (1 - cos θ)/θ² [w]x + (θ - sin θ)/θ³ [w]x².
+// The estimator uses it to move a covariance from the chart at R to the chart at R Exp(w).
+inline Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& w) {
+  const double theta_sq = w.squaredNorm();
+  const Eigen::Matrix3d W = Hat<double>(w);
+  if (theta_sq < 1e-10) return Eigen::Matrix3d::Identity() - 0.5 * W + W * W / 6.0;
+  const double theta = std::sqrt(theta_sq);
+  return Eigen::Matrix3d::Identity() - (1 - std::cos(theta)) / theta_sq * W +
+         (theta - std::sin(theta)) / (theta_sq * theta) * W * W;
+}
+
 // Unit quaternion [w, x, y, z] of a rotation matrix (Shepperd's method: branch on the largest
 // of the trace and the diagonal, so that the square root is always of a number >= 1).
 template <typename T>

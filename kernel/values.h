@@ -44,4 +44,8 @@ struct Values {
 // values <- values ⊞ delta, delta of size `tangent dimension` laid out by Block::tangent_offset.
 void Retract(const std::vector<Block>& blocks, const Eigen::VectorXd& delta, Values* values);
 
+// The delta with to = from ⊞ delta (rotations by the logarithm, angle in [0, π]).
+Eigen::VectorXd LocalCoordinates(const std::vector<Block>& blocks, const Values& from,
+                                 const Values& to);
+
 }  // namespace cfuse

@@ -11,17 +11,20 @@
 
 namespace cfuse::testing {
 
-inline void CheckJacobian(const ConstraintGraph& graph, const ResidualFunction& f,
+inline void CheckJacobian(const std::vector<Block>& graph_blocks, const ResidualFunction& f,
                           const std::vector<int>& blocks, const Values& at) {
+  int tangent_dim = 0;
+  for (const Block& b : graph_blocks)
+    tangent_dim = std::max(tangent_dim, b.tangent_offset + TangentDim(b.kind));
   // Every row written, and finite.
-  const std::vector<BlockState<double>> states = GatherStates(graph.blocks, blocks, at);
+  const std::vector<BlockState<double>> states = GatherStates(graph_blocks, blocks, at);
   std::vector<double> raw(f.dimension(), std::nan(""));
   f.Evaluate(std::span<const BlockState<double>>(states), raw.data());
   for (double v : raw) REQUIRE(std::isfinite(v));
 
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
-  EvaluateResidual(f, graph.blocks, blocks, at, &r, &J);
+  EvaluateResidual(f, graph_blocks, blocks, at, &r, &J);
   REQUIRE(J.rows() == f.dimension());
   REQUIRE(J.cols() == f.arity());
   REQUIRE(J.allFinite());
@@ -29,16 +32,16 @@ inline void CheckJacobian(const ConstraintGraph& graph, const ResidualFunction& 
   const double h = 1e-6;
   int col = 0;
   for (int b : blocks) {
-    const Block& block = graph.blocks[b];
+    const Block& block = graph_blocks[b];
     for (int i = 0; i < TangentDim(block.kind); ++i, ++col) {
-      Eigen::VectorXd delta = Eigen::VectorXd::Zero(graph.tangent_dim());
+      Eigen::VectorXd delta = Eigen::VectorXd::Zero(tangent_dim);
       delta[block.tangent_offset + i] = h;
       Values plus = at, minus = at;
-      Retract(graph.blocks, delta, &plus);
-      Retract(graph.blocks, -delta, &minus);
+      Retract(graph_blocks, delta, &plus);
+      Retract(graph_blocks, -delta, &minus);
       Eigen::VectorXd rp, rm;
-      EvaluateResidual(f, graph.blocks, blocks, plus, &rp, nullptr);
-      EvaluateResidual(f, graph.blocks, blocks, minus, &rm, nullptr);
+      EvaluateResidual(f, graph_blocks, blocks, plus, &rp, nullptr);
+      EvaluateResidual(f, graph_blocks, blocks, minus, &rm, nullptr);
       const Eigen::VectorXd numeric = (rp - rm) / (2 * h);
       for (int row = 0; row < f.dimension(); ++row) {
         INFO("row " << row << ", column " << col << " (block " << block.name << ", coordinate " << i
@@ -47,6 +50,11 @@ inline void CheckJacobian(const ConstraintGraph& graph, const ResidualFunction& 
       }
     }
   }
+}
+
+inline void CheckJacobian(const ConstraintGraph& graph, const ResidualFunction& f,
+                          const std::vector<int>& blocks, const Values& at) {
+  CheckJacobian(graph.blocks, f, blocks, at);
 }
 
 }  // namespace cfuse::testing

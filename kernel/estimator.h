@@ -1,0 +1,117 @@
+// Incremental constraint fusion (Hel-Or & Werman 1994, §4-§5.1): a Gaussian estimate of every
+// block, into which measurements and constraints are fused one at a time by the iterated
+// extended Kalman filter. A constraint is a measurement with zero noise, so after its update
+// the estimate satisfies it exactly (to the iteration tolerance) and its directions carry no
+// variance.
+//
+// State and charts. The estimate is a mean (Values) and a covariance over the tangent
+// coordinates of values.h's chart at that mean (an error state, as in an error-state Kalman
+// filter). One update, for a factor r(x) with noise R (R = 0 for a constraint):
+//   iterate   δ_{i+1} = K_i (H_i δ_i - r(x0 ⊞ δ_i)),   K_i = P0 H_iᵀ S_i⁻¹,
+//             S_i = H_i P0 H_iᵀ + R,   H_i = ∂r/∂δ at δ_i (in the chart of x0)
+//   until the step is below tolerance (the local iterations of §5.1, i.e. Gauss-Newton on the
+//   prior plus this factor), then
+//   mean      x1 = x0 ⊞ δ*,
+//   covariance P1 = (I - K H) P0 (I - K H)ᵀ + K R Kᵀ  (Joseph form: symmetric and PSD),
+//   reset     P1 <- G P1 Gᵀ, G = Jr(δθ*) on every rotation block, I elsewhere, which moves the
+//             covariance from the chart at x0 to the chart at x1.
+//
+// Degenerate directions. Let S = U Λ Uᵀ. A direction u of the factor whose variance uᵀ S u is
+// negligible next to its variance under the initial prior (uᵀ S_init u, S_init = H P_init Hᵀ)
+// is already determined by constraints fused before: it is not inverted. If the factor's
+// innovation along it is zero the rows are redundant and skipped; if not, the factor
+// contradicts what was fused before, and the update is refused with status kContradiction.
+#pragma once
+
+#include <Eigen/Core>
+#include <span>
+#include <vector>
+
+#include "kernel/factor.h"
+#include "kernel/values.h"
+
+namespace cfuse {
+
+struct GaussianState {
+  std::vector<Block> blocks;
+  Values mean;
+  Eigen::MatrixXd covariance;      // tangent_dim x tangent_dim
+  Eigen::VectorXd prior_variance;  // the diagonal of the initial prior, for degeneracy tests
+
+  int dim() const { return static_cast<int>(covariance.rows()); }
+};
+
+// A vague prior: independent, centred on `mean`, with these standard deviations.
+struct PriorScale {
+  double position = 10.0;  // metres: points and translations
+  double rotation = 1.0;   // radians
+  double slack = 10.0;     // slack units
+};
+GaussianState MakePrior(const std::vector<Block>& blocks, const Values& mean,
+                        const PriorScale& scale);
+
+struct FusionOptions {
+  int max_iterations = 50;
+  double step_tolerance = 1e-12;          // on max |δ_{i+1} - δ_i|, relative to 1 + max |δ|
+  double degeneracy_tolerance = 1e-12;    // uᵀ S u / uᵀ S_init u below it: already determined
+  double contradiction_tolerance = 1e-7;  // |uᵀ r| / sqrt(uᵀ S_init u) above it: contradiction
+};
+
+struct FusionSummary {
+  enum class Status {
+    kFused,            // every row fused
+    kPartlyRedundant,  // some rows were already determined (and consistent); the rest fused
+    kRedundant,        // every row was already determined and consistent: nothing changed
+    kContradiction,    // a determined direction disagrees: nothing changed
+    kNotConverged,     // the local iterations did not converge: the last iterate was applied
+    kInvalid,          // the residual or its Jacobian was not finite: nothing changed
+  };
+  Status status = Status::kFused;
+  int rows = 0;
+  int rows_fused = 0;
+  int iterations = 0;
+  double innovation_nis = 0;  // r0ᵀ S⁻¹ r0 at the prior, over the fused directions
+  double contradiction = 0;   // the largest normalised innovation along a determined direction
+
+  bool changed_state() const {
+    return status == Status::kFused || status == Status::kPartlyRedundant ||
+           status == Status::kNotConverged;
+  }
+};
+const char* StatusName(FusionSummary::Status status);
+
+// Fuses one factor. The local iterations start at `linearize_at` if given (a later pass of a
+// sequential filter relinearises each factor about the previous pass's estimate), else at
+// the state's mean.
+FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptions& options = {},
+                   const Values* linearize_at = nullptr);
+
+// Fuses a sequence of factors in order. One pass is exact for linear factors. For nonlinear
+// ones, a later update may move the state along directions an earlier constraint's
+// linearisation allowed, leaving that constraint violated to second order; so while some
+// constraint's residual exceeds `constraint_tolerance`, the whole sequence is fused again
+// from the prior with every factor linearised once about the previous pass's estimate. A
+// sequence of Kalman updates all linearised about one point solves that linearised problem
+// exactly, so each such pass is a Gauss-Newton step on all the factors at once, and the
+// passes converge to the batch solution (batch_solver.h).
+struct SequenceOptions {
+  FusionOptions fusion;
+  int max_passes = 8;
+  double constraint_tolerance = 1e-10;  // max |c(x)| accepted, in the residuals' units
+};
+
+struct SequenceSummary {
+  int passes = 0;
+  bool converged = false;              // every constraint within tolerance
+  double max_constraint_residual = 0;  // at the final estimate
+  std::vector<FusionSummary> fusions;  // of the last pass, one per factor
+};
+
+SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* state,
+                             const SequenceOptions& options = {});
+
+// The largest |c_k(x)| over the constraint factors at `values`.
+double MaxConstraintResidual(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
+                             const Values& values);
+
+}  // namespace cfuse
