@@ -1,0 +1,74 @@
+// The constraint-fusion estimator (issue 3): the lamp fused from 23 labelled 3D points and all
+// its constraints, and how the cost grows along a chain of points.
+#include <benchmark/benchmark.h>
+
+#include <random>
+
+#include "constraints/kinds/equality.h"
+#include "constraints/model_builder.h"
+#include "dsl/model_loader.h"
+#include "kernel/estimator.h"
+#include "kernel/measurements/point3.h"
+
+namespace cfuse {
+namespace {
+
+std::vector<Factor> MeasuredModel(const ConstraintGraph& g, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0, 0.002);
+  const Rigid3d pose(Eigen::Quaterniond(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 1, 0).normalized())),
+                     Eigen::Vector3d(0.1, -0.2, 1.5));
+  std::vector<Factor> factors;
+  for (const Component& c : g.components) {
+    const Eigen::Vector3d z = pose * g.nominal.points[g.blocks[c.block].index] +
+                              Eigen::Vector3d(n(rng), n(rng), n(rng));
+    factors.push_back({std::make_shared<Point3Residual>(z), {c.block}, 4e-6 * Eigen::Matrix3d::Identity(), c.name});
+  }
+  for (const Constraint& c : g.constraints) factors.push_back({c.residual, c.blocks, {}, c.name});
+  return factors;
+}
+
+void BM_FuseLamp(benchmark::State& state) {
+  const ConstraintGraph g = dsl::LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
+  const std::vector<Factor> factors = MeasuredModel(g, 1);
+  const GaussianState prior = MakePrior(g.blocks, g.nominal, PriorScale{});
+  int passes = 0;
+  for (auto _ : state) {
+    GaussianState s = prior;
+    const SequenceSummary summary = FuseSequence(factors, &s);
+    passes = summary.passes;
+    benchmark::DoNotOptimize(s.covariance.data());
+  }
+  state.counters["passes"] = passes;
+}
+BENCHMARK(BM_FuseLamp)->Unit(benchmark::kMicrosecond);
+
+// A chain of N points, each measured, consecutive ones at fixed distances.
+void BM_FuseChain(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  ModelBuilder b("chain", "bench");
+  for (int i = 0; i < n; ++i) {
+    b.AddPointComponent("p" + std::to_string(i), Eigen::Vector3d(0.1 * i, 0.02 * (i % 3), 0), {});
+  }
+  for (int i = 0; i + 1 < n; ++i) {
+    std::string why;
+    const auto P = [&](int k) { return MakePointRef(b.graph().components[k].block); };
+    const ExprPtr d = MakeCall(Function::kDistance, {P(i), P(i + 1)}, &why);
+    const double nominal = (b.graph().nominal.points[i] - b.graph().nominal.points[i + 1]).norm();
+    b.AddConstraint("d" + std::to_string(i), "distance",
+                    EqualityResidual::Create(d, MakeConstant(nominal, Quantity::Length()), b.Context()), {});
+  }
+  const ConstraintGraph g = std::move(b).Build();
+  const std::vector<Factor> factors = MeasuredModel(g, 2);
+  const GaussianState prior = MakePrior(g.blocks, g.nominal, PriorScale{});
+  for (auto _ : state) {
+    GaussianState s = prior;
+    FuseSequence(factors, &s);
+    benchmark::DoNotOptimize(s.covariance.data());
+  }
+  state.SetComplexityN(n);
+}
+BENCHMARK(BM_FuseChain)->Arg(10)->Arg(30)->Arg(100)->Arg(300)->Unit(benchmark::kMillisecond)->Complexity();
+
+}  // namespace
+}  // namespace cfuse
