@@ -15,210 +15,14 @@
 #include "constraints/model_builder.h"
 #include "dsl/lower.h"
 #include "dsl/units.h"
+#include "dsl/yaml_document.h"
 
 namespace cfuse::dsl {
 namespace {
 
 namespace fs = std::filesystem;
 
-// ---------------------------------------------------------------------------------------------
-// Raw file checks: everything that must be refused before YAML sees the bytes.
-
-std::string ReadModelFile(const std::string& path, const SourceLocation& where) {
-  std::error_code ec;
-  const fs::file_status status = fs::status(path, ec);
-  if (ec || !fs::exists(status)) {
-    throw InputError(where.known() ? where : SourceLocation(path),
-                     where.known() ? fmt::format("cannot open '{}': no such file", path)
-                                   : "cannot open: no such file");
-  }
-  if (fs::is_directory(status)) {
-    throw InputError(SourceLocation(path), "is a directory, not a model file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in)
-    throw InputError(SourceLocation(path), fmt::format("cannot open: {}", std::strerror(errno)));
-  std::string text;
-  char buffer[1 << 16];
-  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
-    text.append(buffer, static_cast<size_t>(in.gcount()));
-    if (text.size() > kMaxModelFileBytes) {
-      throw InputError(SourceLocation(path), fmt::format("file is larger than the {} MiB limit for "
-                                                         "model files",
-                                                         kMaxModelFileBytes >> 20));
-    }
-  }
-  return text;
-}
-
-SourceLocation LocationOfOffset(const std::string& file, std::string_view text, size_t offset) {
-  int line = 1, column = 1;
-  for (size_t i = 0; i < offset && i < text.size(); ++i) {
-    if (text[i] == '\n') {
-      ++line;
-      column = 1;
-    } else {
-      ++column;
-    }
-  }
-  return SourceLocation(file, line, column);
-}
-
-void CheckText(const std::string& file, std::string_view text) {
-  const size_t nul = text.find('\0');
-  if (nul != std::string_view::npos) {
-    throw InputError(
-        SourceLocation(file),
-        fmt::format("is a binary file, not a YAML model (NUL byte at offset {})", nul));
-  }
-  // UTF-8 validation: YAML text must be UTF-8, strictly (RFC 3629: no overlong forms,
-  // surrogates or code points above U+10FFFF, which would otherwise pass into names and messages).
-  for (size_t i = 0; i < text.size();) {
-    const unsigned char c = static_cast<unsigned char>(text[i]);
-    const int extra = c < 0x80   ? 0
-                      : c < 0xC2 ? -1
-                      : c < 0xE0 ? 1
-                      : c < 0xF0 ? 2
-                      : c < 0xF5 ? 3
-                                 : -1;
-    // The range of the second byte; the later ones are 0x80..0xBF.
-    unsigned char lo = 0x80, hi = 0xBF;
-    if (c == 0xE0) lo = 0xA0;
-    if (c == 0xED) hi = 0x9F;
-    if (c == 0xF0) lo = 0x90;
-    if (c == 0xF4) hi = 0x8F;
-    bool ok = extra >= 0;
-    for (int k = 1; ok && k <= extra; ++k) {
-      const unsigned char b = i + k < text.size() ? static_cast<unsigned char>(text[i + k]) : 0;
-      ok = k == 1 ? (b >= lo && b <= hi) : (b >= 0x80 && b <= 0xBF);
-    }
-    if (!ok) {
-      throw InputError(LocationOfOffset(file, text, i),
-                       fmt::format("is not UTF-8 text (byte 0x{:02X}); is it a binary file?", c));
-    }
-    i += extra + 1;
-  }
-  bool blank = true;
-  std::istringstream lines{std::string(text)};
-  for (std::string line; std::getline(lines, line);) {
-    const size_t first = line.find_first_not_of(" \t\r");
-    if (first != std::string::npos && line[first] != '#') blank = false;
-  }
-  if (blank)
-    throw InputError(SourceLocation(file), "file is empty: a model needs components or points");
-}
-
-// ---------------------------------------------------------------------------------------------
-// A YAML document with the helpers that turn shape errors into located messages.
-
-class Document {
- public:
-  Document(std::string file, std::string text) : file_(std::move(file)), text_(std::move(text)) {}
-
-  const std::string& file() const { return file_; }
-
-  YAML::Node Parse() const {
-    std::vector<YAML::Node> documents;
-    try {
-      documents = YAML::LoadAll(text_);
-    } catch (const YAML::DeepRecursion& e) {
-      // yaml-cpp's own message for this is "bad file".
-      throw InputError(
-          SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
-          fmt::format("YAML syntax error: nested more than {} levels deep", e.depth() - 1));
-    } catch (const YAML::ParserException& e) {
-      throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
-                       fmt::format("YAML syntax error: {}", e.msg));
-    }
-    // A second document after '---' would otherwise be dropped without a word.
-    for (size_t i = 1; i < documents.size(); ++i) {
-      if (!documents[i].IsNull()) {
-        Fail(documents[i],
-             "a model file holds one YAML document, this is a second one (after "
-             "'---'); split it into files and use include");
-      }
-    }
-    return documents.empty() ? YAML::Node(YAML::NodeType::Null) : documents[0];
-  }
-
-  SourceLocation Loc(const YAML::Node& node) const {
-    const YAML::Mark m = node.Mark();
-    if (m.is_null()) return SourceLocation(file_);
-    return SourceLocation(file_, m.line + 1, m.column + 1);
-  }
-
-  // Where the characters of a scalar start, exactly when they appear verbatim in the file.
-  TextOrigin Origin(const YAML::Node& node) const {
-    TextOrigin o{file_, 0, 0, false};
-    const YAML::Mark m = node.Mark();
-    if (m.is_null()) return o;
-    o.line = m.line + 1;
-    o.column = m.column + 1;
-    const std::string& s = node.Scalar();
-    const size_t pos = static_cast<size_t>(m.pos);
-    if (text_.compare(pos, s.size(), s) == 0) {
-      o.exact = true;
-    } else if (pos < text_.size() && (text_[pos] == '"' || text_[pos] == '\'') &&
-               text_.compare(pos + 1, s.size(), s) == 0) {
-      o.exact = true;
-      o.column += 1;
-    }
-    return o;
-  }
-
-  [[noreturn]] void Fail(const YAML::Node& node, const std::string& message) const {
-    throw InputError(Loc(node), message);
-  }
-
-  void RequireMap(const YAML::Node& node, const std::string& what) const {
-    if (!node.IsMap()) Fail(node, fmt::format("{} must be a mapping (key: value)", what));
-  }
-  void RequireSequence(const YAML::Node& node, const std::string& what) const {
-    if (!node.IsSequence()) Fail(node, fmt::format("{} must be a list", what));
-  }
-  std::string Scalar(const YAML::Node& node, const std::string& what) const {
-    if (!node.IsScalar()) Fail(node, fmt::format("{} must be a single value", what));
-    return node.Scalar();
-  }
-
-  // Entries of a mapping in file order, refusing duplicate keys and keys not in `allowed`
-  // (when given).
-  std::vector<std::pair<YAML::Node, YAML::Node>> Entries(
-      const YAML::Node& map, const std::string& what,
-      const std::vector<std::string>& allowed) const {
-    RequireMap(map, what);
-    std::vector<std::pair<YAML::Node, YAML::Node>> out;
-    std::set<std::string> seen;
-    for (auto it = map.begin(); it != map.end(); ++it) {
-      const YAML::Node key = it->first;
-      const std::string k = Scalar(key, fmt::format("a key of {}", what));
-      if (!seen.insert(k).second) Fail(key, fmt::format("duplicate key '{}' in {}", k, what));
-      if (!allowed.empty() && std::find(allowed.begin(), allowed.end(), k) == allowed.end()) {
-        const std::string s = Suggest(k, allowed);
-        std::string list;
-        for (const std::string& a : allowed) list += (list.empty() ? "" : ", ") + a;
-        Fail(key, fmt::format("unknown key '{}' in {}{}; expected one of: {}", k, what,
-                              s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s), list));
-      }
-      out.emplace_back(key, it->second);
-    }
-    return out;
-  }
-
-  static YAML::Node Find(const std::vector<std::pair<YAML::Node, YAML::Node>>& entries,
-                         const std::string& key) {
-    for (const auto& [k, v] : entries) {
-      if (k.Scalar() == key) return v;
-    }
-    return YAML::Node(YAML::NodeType::Undefined);
-  }
-
- private:
-  std::string file_;
-  std::string text_;
-};
-
-bool Present(const YAML::Node& n) { return n.IsDefined(); }
+const FileKind kModelFile{"model", "a model needs components or points", kMaxModelFileBytes};
 
 // ---------------------------------------------------------------------------------------------
 
@@ -378,7 +182,7 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
           throw InputError(where, fmt::format("include cycle: {}{}", chain, canonical));
         }
       }
-      const std::string text = ReadModelFile(display, where);
+      const std::string text = ReadTextFile(display, where, kModelFile);
       Loader child(options_, stack_, files_read_);
       included = child.Load(display, canonical, text, fs::path(display).parent_path().string());
     } else {
@@ -711,10 +515,10 @@ void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
 
 ConstraintGraph Loader::Load(const std::string& display, const std::string& canonical,
                              const std::string& text, const std::string& base_dir) {
-  CheckText(display, text);
+  CheckText(display, text, kModelFile);
   // Without a byte-order mark, yaml-cpp's offsets index the text (see Document::Origin).
   const bool bom = text.compare(0, 3, "\xEF\xBB\xBF") == 0;
-  const Document doc(display, bom ? text.substr(3) : text);
+  const Document doc(display, bom ? text.substr(3) : text, kModelFile);
   const YAML::Node root = doc.Parse();
   if (!root.IsMap()) {
     if (root.IsNull())
@@ -749,7 +553,7 @@ ConstraintGraph Loader::Load(const std::string& display, const std::string& cano
 }  // namespace
 
 ConstraintGraph LoadModel(const std::string& path, const LoadOptions& options) {
-  const std::string text = ReadModelFile(path, SourceLocation());
+  const std::string text = ReadTextFile(path, SourceLocation(), kModelFile);
   std::error_code ec;
   const std::string canonical = fs::weakly_canonical(path, ec).string();
   std::vector<std::string> stack;
