@@ -1,7 +1,6 @@
 // The cost of the constraint graph's building blocks: loading a model, evaluating residuals
 // with and without their autodiff Jacobians, the rank-based DOF analysis.
 #include <benchmark/benchmark.h>
-
 #include <fmt/format.h>
 
 #include "constraints/dof.h"
@@ -51,9 +50,11 @@ BENCHMARK(BM_LampDofAnalysis)->Unit(benchmark::kMillisecond);
 void BM_LoadPointChain(benchmark::State& state) {
   const int n = static_cast<int>(state.range(0));
   std::string text = "points:\n";
-  for (int i = 0; i < n; ++i) text += fmt::format("  p{}: [{}, {}, 0]\n", i, 0.01 * i, 0.01 * (i % 3));
+  for (int i = 0; i < n; ++i)
+    text += fmt::format("  p{}: [{}, {}, 0]\n", i, 0.01 * i, 0.01 * (i % 3));
   text += "constraints:\n";
-  for (int i = 0; i + 1 < n; ++i) text += fmt::format("  - distance(p{}, p{}) == nominal\n", i, i + 1);
+  for (int i = 0; i + 1 < n; ++i)
+    text += fmt::format("  - distance(p{}, p{}) == nominal\n", i, i + 1);
   for (auto _ : state) benchmark::DoNotOptimize(dsl::LoadModelFromString(text, "chain.yaml", "."));
   state.SetComplexityN(n);
 }

@@ -16,13 +16,17 @@ namespace {
 std::vector<Factor> MeasuredModel(const ConstraintGraph& g, unsigned seed) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n(0, 0.002);
-  const Rigid3d pose(Eigen::Quaterniond(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 1, 0).normalized())),
-                     Eigen::Vector3d(0.1, -0.2, 1.5));
+  const Rigid3d pose(
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 1, 0).normalized())),
+      Eigen::Vector3d(0.1, -0.2, 1.5));
   std::vector<Factor> factors;
   for (const Component& c : g.components) {
-    const Eigen::Vector3d z = pose * g.nominal.points[g.blocks[c.block].index] +
-                              Eigen::Vector3d(n(rng), n(rng), n(rng));
-    factors.push_back({std::make_shared<Point3Residual>(z), {c.block}, 4e-6 * Eigen::Matrix3d::Identity(), c.name});
+    const Eigen::Vector3d z =
+        pose * g.nominal.points[g.blocks[c.block].index] + Eigen::Vector3d(n(rng), n(rng), n(rng));
+    factors.push_back({std::make_shared<Point3Residual>(z),
+                       {c.block},
+                       4e-6 * Eigen::Matrix3d::Identity(),
+                       c.name});
   }
   for (const Constraint& c : g.constraints) factors.push_back({c.residual, c.blocks, {}, c.name});
   return factors;
@@ -55,8 +59,9 @@ void BM_FuseChain(benchmark::State& state) {
     const auto P = [&](int k) { return MakePointRef(b.graph().components[k].block); };
     const ExprPtr d = MakeCall(Function::kDistance, {P(i), P(i + 1)}, &why);
     const double nominal = (b.graph().nominal.points[i] - b.graph().nominal.points[i + 1]).norm();
-    b.AddConstraint("d" + std::to_string(i), "distance",
-                    EqualityResidual::Create(d, MakeConstant(nominal, Quantity::Length()), b.Context()), {});
+    b.AddConstraint(
+        "d" + std::to_string(i), "distance",
+        EqualityResidual::Create(d, MakeConstant(nominal, Quantity::Length()), b.Context()), {});
   }
   const ConstraintGraph g = std::move(b).Build();
   const std::vector<Factor> factors = MeasuredModel(g, 2);
@@ -68,7 +73,13 @@ void BM_FuseChain(benchmark::State& state) {
   }
   state.SetComplexityN(n);
 }
-BENCHMARK(BM_FuseChain)->Arg(10)->Arg(30)->Arg(100)->Arg(300)->Unit(benchmark::kMillisecond)->Complexity();
+BENCHMARK(BM_FuseChain)
+    ->Arg(10)
+    ->Arg(30)
+    ->Arg(100)
+    ->Arg(300)
+    ->Unit(benchmark::kMillisecond)
+    ->Complexity();
 
 }  // namespace
 }  // namespace cfuse

@@ -3,17 +3,22 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <functional>
 #include <iostream>
 #include <sstream>
 
+#include "cli/results.h"
 #include "cli/summary.h"
 #include "constraints/graphviz.h"
+#include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "interp/solve.h"
 #include "kernel/check.h"
 #include "kernel/error.h"
+#include "vision/pnp.h"
 
 namespace cfuse::cli {
 namespace {
@@ -104,6 +109,43 @@ int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err) 
       out << dot.str();
     } else {
       WriteFileAtomically(options.output, dot.str());
+    }
+    return 0;
+  });
+}
+
+int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+    const auto start = std::chrono::steady_clock::now();
+    SolveOptions solve_options;
+    solve_options.pose_from_projections = &vision::PoseFromProjections;
+    const Solution solution = Solve(graph, set, solve_options);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (solution.labels.empty()) {
+      throw InputError(SourceLocation(options.measurements),
+                       "no labelled points: solve needs labels (unlabelled points are for "
+                       "`cfuse interpret`)");
+    }
+    const std::string text = SolutionJson(graph, set, solution, ms).dump(2) + "\n";
+    if (options.output.empty()) {
+      out << text;
+    } else {
+      WriteFileAtomically(options.output, text);
+    }
+    if (!solution.contradictions.empty()) {
+      std::string names;
+      for (const std::string& n : solution.contradictions) names += (names.empty() ? "" : ", ") + n;
+      err << fmt::format("cfuse: contradictory constraints or measurements, not fused: {}\n",
+                         names);
+      return 1;
+    }
+    if (!solution.summary.converged) {
+      err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes\n",
+                         solution.summary.max_constraint_residual, solution.summary.passes);
+      return 1;
     }
     return 0;
   });

@@ -23,6 +23,13 @@ struct GraphOptions {
 };
 int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err);
 
+struct SolveCommandOptions {
+  std::string model;
+  std::string measurements;
+  std::string output;  // empty: stdout
+};
+int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err);
+
 int RunDemo(std::ostream& out, std::ostream& err);
 
 // The embedded copy of examples/lamp.yaml used by `cfuse demo` (generated at build time).

@@ -20,6 +20,13 @@ int main(int argc, char** argv) {
   graph_cmd->add_option("MODEL", graph.model, "Model file (.yaml)")->required();
   graph_cmd->add_option("-o,--output", graph.output, "Output file (default: stdout)");
 
+  cfuse::cli::SolveCommandOptions solve;
+  CLI::App* solve_cmd = app.add_subcommand("solve", "Estimate poses from labelled measurements");
+  solve_cmd->add_option("MODEL", solve.model, "Model file (.yaml)")->required();
+  solve_cmd->add_option("--measurements", solve.measurements, "Measurements (.json or .yaml)")
+      ->required();
+  solve_cmd->add_option("-o,--output", solve.output, "Result file (default: stdout)");
+
   CLI::App* demo_cmd = app.add_subcommand("demo", "A short built-in run on the desk lamp model");
 
   try {
@@ -32,6 +39,7 @@ int main(int argc, char** argv) {
   }
   if (*check_cmd) return cfuse::cli::RunCheck(check, std::cout, std::cerr);
   if (*graph_cmd) return cfuse::cli::RunGraph(graph, std::cout, std::cerr);
+  if (*solve_cmd) return cfuse::cli::RunSolve(solve, std::cout, std::cerr);
   if (*demo_cmd) return cfuse::cli::RunDemo(std::cout, std::cerr);
   return 2;
 }

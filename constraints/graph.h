@@ -17,10 +17,10 @@
 #include <string_view>
 #include <vector>
 
-#include "kernel/residual.h"
-#include "kernel/values.h"
 #include "kernel/error.h"
+#include "kernel/residual.h"
 #include "kernel/rigid3.h"
+#include "kernel/values.h"
 
 namespace cfuse {
 

@@ -15,12 +15,12 @@ namespace cfuse {
 
 struct MeasuredPoint {
   bool is_3d = true;
-  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();    // 3D, viewer frame, metres
-  Eigen::Matrix3d cov3 = Eigen::Matrix3d::Zero();   // 3D covariance, m²
-  Eigen::Vector2d uv = Eigen::Vector2d::Zero();     // 2D, pixels
-  Eigen::Matrix2d cov2 = Eigen::Matrix2d::Zero();   // 2D covariance, px²
-  std::string label;                                // model point, or empty
-  SourceLocation where;                             // the entry in its file
+  Eigen::Vector3d xyz = Eigen::Vector3d::Zero();   // 3D, viewer frame, metres
+  Eigen::Matrix3d cov3 = Eigen::Matrix3d::Zero();  // 3D covariance, m²
+  Eigen::Vector2d uv = Eigen::Vector2d::Zero();    // 2D, pixels
+  Eigen::Matrix2d cov2 = Eigen::Matrix2d::Zero();  // 2D covariance, px²
+  std::string label;                               // model point, or empty
+  SourceLocation where;                            // the entry in its file
 };
 
 struct MeasurementSet {

@@ -1,0 +1,94 @@
+#include "cli/results.h"
+
+#include <cmath>
+
+#include "constraints/kinds/joint_residual.h"
+#include "kernel/evaluate.h"
+
+namespace cfuse::cli {
+namespace {
+
+nlohmann::json Matrix(const Eigen::MatrixXd& m) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int i = 0; i < m.rows(); ++i) {
+    nlohmann::json row = nlohmann::json::array();
+    for (int j = 0; j < m.cols(); ++j) row.push_back(m(i, j));
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+nlohmann::json Vector(const Eigen::VectorXd& v) {
+  nlohmann::json out = nlohmann::json::array();
+  for (int i = 0; i < v.size(); ++i) out.push_back(v[i]);
+  return out;
+}
+
+std::string LabelOf(const ConstraintGraph& graph, const ResolvedLabel& r) {
+  const Component& c = graph.components[r.component];
+  return r.feature < 0 ? c.name : c.name + "." + c.points[r.feature].name;
+}
+
+}  // namespace
+
+std::vector<JointEstimate> EstimateJoints(const ConstraintGraph& graph,
+                                          const GaussianState& state) {
+  std::vector<JointEstimate> out;
+  for (const Joint& j : graph.joints) {
+    if (!HasJointVariable(j.type)) continue;
+    const JointValueFunction q(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
+                               j.type == JointType::kPrismatic);
+    const std::vector<int> blocks = {graph.components[j.parent].block,
+                                     graph.components[j.child].block};
+    Eigen::VectorXd value;
+    Eigen::MatrixXd J;
+    EvaluateResidual(q, graph.blocks, blocks, state.mean, &value, &J);
+    Eigen::MatrixXd P(12, 12);
+    for (int a = 0; a < 2; ++a)
+      for (int b = 0; b < 2; ++b)
+        P.block<6, 6>(6 * a, 6 * b) = state.covariance.block<6, 6>(
+            graph.blocks[blocks[a]].tangent_offset, graph.blocks[blocks[b]].tangent_offset);
+    out.push_back({j.name, value[0], std::sqrt(std::max(0.0, (J * P * J.transpose())(0, 0)))});
+  }
+  return out;
+}
+
+nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& set,
+                            const Solution& solution, double time_ms) {
+  const GaussianState& s = solution.state;
+  nlohmann::json out;
+  out["components"] = nlohmann::json::object();
+  out["points"] = nlohmann::json::object();
+  for (const Component& c : graph.components) {
+    const Block& b = graph.blocks[c.block];
+    const Eigen::MatrixXd cov = s.covariance.block(b.tangent_offset, b.tangent_offset,
+                                                   TangentDim(b.kind), TangentDim(b.kind));
+    if (c.rigid) {
+      const Rigid3d& pose = s.mean.poses[b.index];
+      const Eigen::Quaterniond q = pose.rotation.normalized();
+      out["components"][c.name] = {{"position", Vector(pose.translation)},
+                                   {"quaternion", {q.w(), q.x(), q.y(), q.z()}},
+                                   {"covariance", Matrix(cov)}};
+    } else {
+      out["points"][c.name] = {{"xyz", Vector(s.mean.points[b.index])}, {"cov", Matrix(cov)}};
+    }
+  }
+  out["joints"] = nlohmann::json::object();
+  for (const JointEstimate& j : EstimateJoints(graph, s)) {
+    out["joints"][j.name] = {{"value", j.value}, {"sigma", j.sigma}};
+  }
+  out["matches"] = nlohmann::json::array();
+  std::vector<std::string> labels(set.points.size());
+  for (const ResolvedLabel& r : solution.labels) labels[r.measurement] = LabelOf(graph, r);
+  for (const std::string& l : labels)
+    out["matches"].push_back(l.empty() ? nlohmann::json() : nlohmann::json(l));
+  out["constraints"] = {{"count", graph.constraints.size()},
+                        {"max_abs_residual", solution.summary.max_constraint_residual}};
+  out["status"] = {{"converged", solution.summary.converged},
+                   {"passes", solution.summary.passes},
+                   {"contradictions", solution.contradictions}};
+  out["time_ms"] = time_ms;
+  return out;
+}
+
+}  // namespace cfuse::cli

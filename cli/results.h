@@ -1,0 +1,24 @@
+// The results file of `solve` (and later `interpret`), docs/formats.md: every component's pose
+// with its covariance, every single point, every joint variable with its sigma, the label each
+// measurement was matched to, and how well the constraints hold.
+#pragma once
+
+#include <nlohmann/json.hpp>
+
+#include "constraints/graph.h"
+#include "interp/solve.h"
+#include "kernel/measurement_set.h"
+
+namespace cfuse::cli {
+
+nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& set,
+                            const Solution& solution, double time_ms);
+
+// The value and standard deviation of every joint with a variable, from the estimate.
+struct JointEstimate {
+  std::string name;
+  double value = 0, sigma = 0;
+};
+std::vector<JointEstimate> EstimateJoints(const ConstraintGraph& graph, const GaussianState& state);
+
+}  // namespace cfuse::cli

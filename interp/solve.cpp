@@ -1,0 +1,217 @@
+#include "interp/solve.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
+
+#include "kernel/measurements/image_point.h"
+#include "kernel/measurements/point3.h"
+
+namespace cfuse {
+namespace {
+
+// Absolute orientation without scale: to_from_from with to ≈ R from + t, or false when the
+// points do not fix a rotation (fewer than 3, or collinear).
+bool AbsoluteOrientation(const std::vector<Eigen::Vector3d>& from,
+                         const std::vector<Eigen::Vector3d>& to, Rigid3d* result) {
+  const int n = static_cast<int>(from.size());
+  if (n < 3) return false;
+  Eigen::Matrix3Xd a(3, n), b(3, n);
+  for (int i = 0; i < n; ++i) {
+    a.col(i) = from[i];
+    b.col(i) = to[i];
+  }
+  const Eigen::Vector3d centre = a.rowwise().mean();
+  const Eigen::Matrix3Xd centred = a.colwise() - centre;
+  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
+  const Eigen::Vector3d s = svd.singularValues();
+  if (!(s[1] > 1e-6 * std::max(s[0], 1e-12))) return false;  // collinear
+  const Eigen::Matrix4d T = Eigen::umeyama(a, b, false);
+  *result = Rigid3d(Eigen::Matrix3d(T.topLeftCorner<3, 3>()), T.topRightCorner<3, 1>());
+  return true;
+}
+
+Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
+  return v.poses[g.blocks[g.components[component].block].index];
+}
+
+}  // namespace
+
+Eigen::Vector3d ModelPoint(const ConstraintGraph& graph, const Values& values, int component,
+                           int feature) {
+  const Component& c = graph.components[component];
+  const Block& b = graph.blocks[c.block];
+  if (!c.rigid) return values.points[b.index];
+  return values.poses[b.index] * c.points[feature].position;
+}
+
+double ModelExtent(const ConstraintGraph& graph) {
+  std::vector<Eigen::Vector3d> points;
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    const Component& comp = graph.components[c];
+    if (!comp.rigid) points.push_back(ModelPoint(graph, graph.nominal, static_cast<int>(c), -1));
+    for (size_t f = 0; f < comp.points.size(); ++f) {
+      points.push_back(ModelPoint(graph, graph.nominal, static_cast<int>(c), static_cast<int>(f)));
+    }
+    if (comp.rigid)
+      points.push_back(graph.nominal.poses[graph.blocks[comp.block].index].translation);
+  }
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centre += p;
+  centre /= std::max<size_t>(1, points.size());
+  double extent = 1e-3;
+  for (const Eigen::Vector3d& p : points) extent = std::max(extent, (p - centre).norm());
+  return extent;
+}
+
+std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const MeasurementSet& set) {
+  std::vector<ResolvedLabel> labels;
+  for (size_t i = 0; i < set.points.size(); ++i) {
+    const MeasuredPoint& m = set.points[i];
+    if (m.label.empty()) continue;
+    ResolvedLabel r;
+    r.measurement = static_cast<int>(i);
+    const size_t dot = m.label.find('.');
+    if (dot != std::string::npos) {
+      r.component = graph.FindComponent(m.label.substr(0, dot));
+      if (r.component >= 0 && graph.components[r.component].rigid) {
+        r.feature = graph.components[r.component].FindPoint(m.label.substr(dot + 1));
+      }
+      if (r.component < 0 || r.feature < 0) {
+        throw InputError(m.where, fmt::format("unknown label '{}': no such model point", m.label));
+      }
+    } else {
+      int matches = 0;
+      for (size_t c = 0; c < graph.components.size(); ++c) {
+        const Component& comp = graph.components[c];
+        if (!comp.rigid && comp.name == m.label) {
+          r.component = static_cast<int>(c);
+          r.feature = -1;
+          ++matches;
+        }
+        const int f = comp.rigid ? comp.FindPoint(m.label) : -1;
+        if (f >= 0) {
+          r.component = static_cast<int>(c);
+          r.feature = f;
+          ++matches;
+        }
+      }
+      if (matches == 0) {
+        throw InputError(m.where, fmt::format("unknown label '{}': no such model point", m.label));
+      }
+      if (matches > 1) {
+        throw InputError(m.where,
+                         fmt::format("label '{}' is ambiguous: write component.point", m.label));
+      }
+    }
+    labels.push_back(r);
+  }
+  return labels;
+}
+
+Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
+               const SolveOptions& options) {
+  Solution solution;
+  solution.labels = ResolveLabels(graph, set);
+  solution.extent = ModelExtent(graph);
+
+  // 1. A global rigid guess from all labelled points against the nominal geometry.
+  std::vector<Eigen::Vector3d> model3, measured3, model2;
+  std::vector<Eigen::Vector2d> measured2;
+  for (const ResolvedLabel& r : solution.labels) {
+    const MeasuredPoint& m = set.points[r.measurement];
+    const Eigen::Vector3d nominal = ModelPoint(graph, graph.nominal, r.component, r.feature);
+    if (m.is_3d) {
+      model3.push_back(nominal);
+      measured3.push_back(m.xyz);
+    } else {
+      model2.push_back(nominal);
+      measured2.push_back(m.uv);
+    }
+  }
+  Rigid3d world_from_nominal;
+  if (!AbsoluteOrientation(model3, measured3, &world_from_nominal)) {
+    if (model3.size() == 1 || model3.size() == 2) {
+      world_from_nominal = Rigid3d(Eigen::Quaterniond::Identity(), measured3[0] - model3[0]);
+    }
+    if (set.camera && model2.size() >= 4 && options.pose_from_projections) {
+      Rigid3d pose;
+      if (options.pose_from_projections(*set.camera, model2, measured2, &pose))
+        world_from_nominal = pose;
+    }
+  }
+  Values initial = graph.nominal;
+  for (Rigid3d& pose : initial.poses) pose = world_from_nominal * pose;
+  for (Eigen::Vector3d& p : initial.points) p = world_from_nominal * p;
+
+  // 2. Each component's own closed-form start where its labels allow one.
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    const Component& comp = graph.components[c];
+    std::vector<Eigen::Vector3d> local3, world3, local2;
+    std::vector<Eigen::Vector2d> image2;
+    for (const ResolvedLabel& r : solution.labels) {
+      if (r.component != static_cast<int>(c)) continue;
+      const MeasuredPoint& m = set.points[r.measurement];
+      const Eigen::Vector3d local =
+          comp.rigid ? comp.points[r.feature].position : Eigen::Vector3d::Zero();
+      if (m.is_3d) {
+        local3.push_back(local);
+        world3.push_back(m.xyz);
+      } else {
+        local2.push_back(local);
+        image2.push_back(m.uv);
+      }
+    }
+    if (!comp.rigid) {
+      if (!world3.empty()) {
+        Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+        for (const Eigen::Vector3d& p : world3) mean += p;
+        initial.points[graph.blocks[comp.block].index] = mean / static_cast<double>(world3.size());
+      }
+      continue;
+    }
+    Rigid3d pose;
+    if (AbsoluteOrientation(local3, world3, &pose)) {
+      PoseOf(graph, initial, static_cast<int>(c)) = pose;
+    } else if (set.camera && local2.size() >= 4 && options.pose_from_projections &&
+               options.pose_from_projections(*set.camera, local2, image2, &pose)) {
+      PoseOf(graph, initial, static_cast<int>(c)) = pose;
+    }
+  }
+
+  // 3. The prior, and 4. the factors.
+  PriorScale scale;
+  scale.position = options.prior_extent_factor * solution.extent;
+  scale.rotation = options.prior_rotation_sigma;
+  scale.slack = options.prior_slack_sigma;
+  solution.state = MakePrior(graph.blocks, initial, scale);
+  std::vector<Factor> factors;
+  for (const ResolvedLabel& r : solution.labels) {
+    const MeasuredPoint& m = set.points[r.measurement];
+    const Component& comp = graph.components[r.component];
+    const std::string name = fmt::format("measurement {} ({})", r.measurement, m.label);
+    if (m.is_3d) {
+      auto f = comp.rigid ? std::make_shared<Point3Residual>(comp.points[r.feature].position, m.xyz)
+                          : std::make_shared<Point3Residual>(m.xyz);
+      factors.push_back({f, {comp.block}, m.cov3, name});
+    } else {
+      auto f = comp.rigid ? std::make_shared<ImagePointResidual>(
+                                *set.camera, comp.points[r.feature].position, m.uv)
+                          : std::make_shared<ImagePointResidual>(*set.camera, m.uv);
+      factors.push_back({f, {comp.block}, m.cov2, name});
+    }
+  }
+  for (const Constraint& c : graph.constraints)
+    factors.push_back({c.residual, c.blocks, {}, c.name});
+  SequenceOptions sequence = options.sequence;
+  sequence.constraint_tolerance = std::min(sequence.constraint_tolerance, 1e-10 * solution.extent);
+  solution.summary = FuseSequence(factors, &solution.state, sequence);
+  for (size_t i = 0; i < factors.size(); ++i) {
+    if (solution.summary.fusions[i].status == FusionSummary::Status::kContradiction) {
+      solution.contradictions.push_back(factors[i].name);
+    }
+  }
+  return solution;
+}
+
+}  // namespace cfuse

@@ -1,0 +1,147 @@
+// Solving with known correspondences: orientation independence, constraints met, occluded
+// points through constraints, rigid components from image points alone.
+#include "interp/solve.h"
+
+#include <catch2/catch.hpp>
+#include <random>
+
+#include "dsl/measurement_reader.h"
+#include "dsl/model_loader.h"
+#include "kernel/evaluate.h"
+#include "test_util.h"
+#include "vision/pnp.h"
+
+namespace cfuse {
+namespace {
+
+Rigid3d RandomPose(std::mt19937& rng, double depth) {
+  std::normal_distribution<double> n(0, 1);
+  return Rigid3d(Eigen::Quaterniond(n(rng), n(rng), n(rng), n(rng)).normalized(),
+                 Eigen::Vector3d(0.1 * n(rng), 0.1 * n(rng), depth));
+}
+
+// Every model point of the graph at `truth`, measured in 3D with isotropic noise.
+MeasurementSet Measure3d(const ConstraintGraph& g, const Values& truth, std::mt19937& rng,
+                         double sigma, const std::string& skip = "") {
+  std::normal_distribution<double> n(0, sigma);
+  MeasurementSet set;
+  for (size_t c = 0; c < g.components.size(); ++c) {
+    const Component& comp = g.components[c];
+    const int count = comp.rigid ? static_cast<int>(comp.points.size()) : 1;
+    for (int f = 0; f < count; ++f) {
+      const std::string label = comp.rigid ? comp.name + "." + comp.points[f].name : comp.name;
+      if (label == skip) continue;
+      MeasuredPoint m;
+      m.xyz = ModelPoint(g, truth, static_cast<int>(c), comp.rigid ? f : -1) +
+              Eigen::Vector3d(n(rng), n(rng), n(rng));
+      m.cov3 = sigma * sigma * Eigen::Matrix3d::Identity();
+      m.label = label;
+      set.points.push_back(m);
+    }
+  }
+  return set;
+}
+
+Values Moved(const ConstraintGraph& g, const Rigid3d& pose) {
+  Values v = g.nominal;
+  for (Rigid3d& p : v.poses) p = pose * p;
+  for (Eigen::Vector3d& p : v.points) p = pose * p;
+  return v;
+}
+
+TEST_CASE("solve: the lamp at poses all over SO(3): constraints met, error at noise level",
+          "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  for (unsigned seed = 1; seed <= 40; ++seed) {
+    std::mt19937 rng(seed);
+    const Values truth = Moved(g, RandomPose(rng, 1.5));
+    const Solution s = Solve(g, Measure3d(g, truth, rng, 0.002));
+    INFO("seed " << seed);
+    REQUIRE(s.summary.converged);
+    CHECK(s.contradictions.empty());
+    CHECK(s.summary.max_constraint_residual <= 1e-8 * s.extent);
+    double worst = 0;
+    for (size_t i = 0; i < truth.points.size(); ++i) {
+      worst = std::max(worst, (s.state.mean.points[i] - truth.points[i]).norm());
+    }
+    CHECK(worst < 5 * 0.002 * std::sqrt(3.0));
+  }
+}
+
+TEST_CASE("solve: an occluded point is estimated through the constraints, less certainly",
+          "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  std::mt19937 rng(3);
+  const Values truth = Moved(g, RandomPose(rng, 1.5));
+  std::mt19937 rng_a(4), rng_b(4);
+  const Solution all = Solve(g, Measure3d(g, truth, rng_a, 0.002));
+  const Solution occluded = Solve(g, Measure3d(g, truth, rng_b, 0.002, "p23"));
+  REQUIRE(occluded.summary.converged);
+  const int i = g.blocks[g.components[g.FindComponent("p23")].block].index;
+  const int o = g.blocks[g.components[g.FindComponent("p23")].block].tangent_offset;
+  CHECK((occluded.state.mean.points[i] - truth.points[i]).norm() < 0.02);
+  CHECK(occluded.state.covariance.block<3, 3>(o, o).trace() >
+        all.state.covariance.block<3, 3>(o, o).trace());
+}
+
+TEST_CASE("solve: the hinged box from image points alone (§7), poses all over SO(3)", "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  Camera camera;
+  camera.fx = camera.fy = 800;
+  camera.cx = 320;
+  camera.cy = 240;
+  camera.width = 640;
+  camera.height = 480;
+  camera.distortion[0] = -0.05;
+  SolveOptions options;
+  options.pose_from_projections = &vision::PoseFromProjections;
+  int solved = 0;
+  for (unsigned seed = 1; seed <= 30; ++seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> pixel(0, 0.5);
+    const Values truth = Moved(g, RandomPose(rng, 1.6));
+    MeasurementSet set;
+    set.camera = camera;
+    for (size_t c = 0; c < g.components.size(); ++c) {
+      for (size_t f = 0; f < g.components[c].points.size(); ++f) {
+        MeasuredPoint m;
+        m.is_3d = false;
+        m.uv =
+            camera.Project<double>(ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f))) +
+            Eigen::Vector2d(pixel(rng), pixel(rng));
+        m.cov2 = 0.25 * Eigen::Matrix2d::Identity();
+        m.label = g.components[c].name + "." + g.components[c].points[f].name;
+        set.points.push_back(m);
+      }
+    }
+    const Solution s = Solve(g, set, options);
+    INFO("seed " << seed);
+    CHECK(s.summary.converged);
+    const Rigid3d& box = s.state.mean.poses[0];
+    const Rigid3d& box_truth = truth.poses[0];
+    const double rotation_error = box.rotation.angularDistance(box_truth.rotation);
+    const double translation_error = (box.translation - box_truth.translation).norm();
+    CHECK(rotation_error < 0.02);
+    CHECK(translation_error < 0.02);
+    solved += rotation_error < 0.02 && translation_error < 0.02;
+  }
+  CHECK(solved == 30);
+}
+
+TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const MeasurementSet set = dsl::ReadMeasurementsFromString(
+      "points:\n  - {xyz: [0, 0, 1], sigma: 0.01, label: box.c000}\n"
+      "  - {xyz: [0, 0, 1], sigma: 0.01, label: box.c999}\n",
+      "meas.yaml");
+  try {
+    Solve(g, set);
+    FAIL("an unknown label was accepted");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()) ==
+          "meas.yaml:3:5: points[1]: error: unknown label 'box.c999': no such model point");
+  }
+}
+
+}  // namespace
+}  // namespace cfuse
