@@ -3,7 +3,9 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -15,6 +17,7 @@
 #include "constraints/graphviz.h"
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "interp/simulate.h"
 #include "interp/solve.h"
 #include "kernel/check.h"
 #include "kernel/error.h"
@@ -151,6 +154,34 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
   });
 }
 
+int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    SimulateOptions sim_options;
+    sim_options.seed = options.seed;
+    sim_options.noise = options.noise;
+    sim_options.pixel_noise = options.pixel_noise;
+    sim_options.clutter = options.clutter;
+    sim_options.occlusion = options.occlusion;
+    sim_options.labels = options.labels;
+    if (!options.camera.empty()) sim_options.camera = dsl::ReadCameraFile(options.camera);
+    const Simulation sim = Simulate(graph, sim_options);
+    const std::string measurements = MeasurementsJson(sim.measurements).dump(1) + "\n";
+    const std::string truth = TruthJson(graph, sim.truth, sim.matches).dump(1) + "\n";
+    WriteFileAtomically(options.output, measurements);
+    WriteFileAtomically(options.truth, truth);
+    out << fmt::format(
+        "simulated {} measurements of '{}' ({} real, {} clutter) -> {}, truth -> {}\n",
+        sim.measurements.points.size(), graph.name,
+        std::count_if(sim.matches.begin(), sim.matches.end(),
+                      [](const std::string& m) { return !m.empty(); }),
+        std::count_if(sim.matches.begin(), sim.matches.end(),
+                      [](const std::string& m) { return m.empty(); }),
+        options.output, options.truth);
+    return 0;
+  });
+}
+
 int RunDemo(std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     out << "cfuse demo: the desk lamp of Hel-Or & Werman (1994), built in\n\n";
@@ -158,10 +189,52 @@ int RunDemo(std::ostream& out, std::ostream& err) {
         dsl::LoadModelFromString(kEmbeddedLampYaml, "built-in examples/lamp.yaml", ".");
     const ModelSummary summary = Summarize(graph);
     PrintSummary(graph, summary, out);
-    out << "\nThe lamp's 23 points are single-point components (69 state variables); its\n"
-           "distance, parallel and coplanar constraints leave the 5 internal degrees of\n"
-           "freedom of the paper plus the 6 of the lamp's placement in the world.\n";
-    return summary.violations.empty() ? 0 : 1;
+
+    // Simulate: a random configuration of the lamp at a random pose, 2 mm noise, one point
+    // occluded; then solve from the labelled measurements.
+    SimulateOptions sim_options;
+    sim_options.seed = 2026;
+    sim_options.noise = 0.002;
+    sim_options.occlusion = 1.0 / 23;
+    sim_options.labels = true;
+    const Simulation sim = Simulate(graph, sim_options);
+    const auto start = std::chrono::steady_clock::now();
+    const Solution solution = Solve(graph, sim.measurements);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+
+    out << fmt::format("\nsimulate: {} labelled 3D points (sigma 2 mm), {} occluded\n",
+                       sim.measurements.points.size(),
+                       graph.components.size() - sim.measurements.points.size());
+    out << fmt::format("solve: {} passes, {:.2f} ms, largest constraint residual {:.1e}\n\n",
+                       solution.summary.passes, ms, solution.summary.max_constraint_residual);
+    out << "point   error of the estimate   error of the measurement   sigma of the estimate\n";
+    double sum_estimate = 0, sum_measured = 0;
+    int measured = 0;
+    for (const Component& c : graph.components) {
+      const Block& b = graph.blocks[c.block];
+      const Eigen::Vector3d truth = sim.truth.points[b.index];
+      const double e = (solution.state.mean.points[b.index] - truth).norm();
+      const double sigma = std::sqrt(
+          solution.state.covariance.block<3, 3>(b.tangent_offset, b.tangent_offset).trace());
+      std::string m = "occluded";
+      for (const MeasuredPoint& p : sim.measurements.points) {
+        if (p.label == c.name) {
+          m = fmt::format("{:.2f} mm", 1000 * (p.xyz - truth).norm());
+          sum_measured += (p.xyz - truth).squaredNorm();
+          sum_estimate += e * e;
+          ++measured;
+        }
+      }
+      out << fmt::format("{:<7} {:>10.2f} mm {:>24} {:>21.2f} mm\n", c.name, 1000 * e, m,
+                         1000 * sigma);
+    }
+    out << fmt::format(
+        "\nRMS over the measured points: estimate {:.2f} mm, measurements {:.2f} mm\n",
+        1000 * std::sqrt(sum_estimate / measured), 1000 * std::sqrt(sum_measured / measured));
+    out << "The constraints hold to the residual above; fusing them with the measurements brings\n"
+           "the error well below the measurements' own, and places the occluded point.\n";
+    return summary.violations.empty() && solution.summary.converged ? 0 : 1;
   });
 }
 

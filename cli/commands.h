@@ -30,6 +30,20 @@ struct SolveCommandOptions {
 };
 int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err);
 
+struct SimulateCommandOptions {
+  std::string model;
+  unsigned seed = 1;
+  double noise = 0.002;
+  double pixel_noise = 1.0;
+  std::string camera;  // camera file; 2D measurements when given
+  double clutter = 0;
+  double occlusion = 0;
+  bool labels = false;
+  std::string output;  // measurements
+  std::string truth;
+};
+int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err);
+
 int RunDemo(std::ostream& out, std::ostream& err);
 
 // The embedded copy of examples/lamp.yaml used by `cfuse demo` (generated at build time).

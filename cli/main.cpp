@@ -27,6 +27,23 @@ int main(int argc, char** argv) {
       ->required();
   solve_cmd->add_option("-o,--output", solve.output, "Result file (default: stdout)");
 
+  cfuse::cli::SimulateCommandOptions sim;
+  CLI::App* sim_cmd =
+      app.add_subcommand("simulate", "Synthetic measurements of a random configuration");
+  sim_cmd->add_option("MODEL", sim.model, "Model file (.yaml)")->required();
+  sim_cmd->add_option("--seed", sim.seed, "Random seed");
+  sim_cmd->add_option("--noise", sim.noise, "3D noise sigma, metres")->check(CLI::PositiveNumber);
+  sim_cmd->add_option("--pixel-noise", sim.pixel_noise, "2D noise sigma, pixels")
+      ->check(CLI::PositiveNumber);
+  sim_cmd->add_option("--camera", sim.camera, "Camera file: 2D measurements instead of 3D");
+  sim_cmd->add_option("--clutter", sim.clutter, "Clutter points per real point")
+      ->check(CLI::Range(0.0, 100.0));
+  sim_cmd->add_option("--occlusion", sim.occlusion, "Fraction of model points not measured")
+      ->check(CLI::Range(0.0, 1.0));
+  sim_cmd->add_flag("--labels", sim.labels, "Keep labels (and order) on the real measurements");
+  sim_cmd->add_option("-o,--output", sim.output, "Measurement file to write")->required();
+  sim_cmd->add_option("--truth", sim.truth, "Truth file to write")->required();
+
   CLI::App* demo_cmd = app.add_subcommand("demo", "A short built-in run on the desk lamp model");
 
   try {
@@ -40,6 +57,7 @@ int main(int argc, char** argv) {
   if (*check_cmd) return cfuse::cli::RunCheck(check, std::cout, std::cerr);
   if (*graph_cmd) return cfuse::cli::RunGraph(graph, std::cout, std::cerr);
   if (*solve_cmd) return cfuse::cli::RunSolve(solve, std::cout, std::cerr);
+  if (*sim_cmd) return cfuse::cli::RunSimulate(sim, std::cout, std::cerr);
   if (*demo_cmd) return cfuse::cli::RunDemo(std::cout, std::cerr);
   return 2;
 }

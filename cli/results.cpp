@@ -1,5 +1,6 @@
 #include "cli/results.h"
 
+#include <algorithm>
 #include <cmath>
 
 #include "constraints/kinds/joint_residual.h"
@@ -88,6 +89,72 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
                    {"passes", solution.summary.passes},
                    {"contradictions", solution.contradictions}};
   out["time_ms"] = time_ms;
+  return out;
+}
+
+nlohmann::json MeasurementsJson(const MeasurementSet& set) {
+  nlohmann::json out;
+  if (set.camera) {
+    const Camera& c = *set.camera;
+    if (c.model == Camera::Model::kPinhole) {
+      out["camera"] = {
+          {"fx", c.fx},
+          {"fy", c.fy},
+          {"cx", c.cx},
+          {"cy", c.cy},
+          {"width", c.width},
+          {"height", c.height},
+          {"dist", std::vector<double>(c.distortion.begin(), c.distortion.begin() + 5)}};
+      const bool more = std::any_of(c.distortion.begin() + 5, c.distortion.end(),
+                                    [](double d) { return d != 0; });
+      if (more)
+        out["camera"]["dist"] = std::vector<double>(c.distortion.begin(), c.distortion.end());
+    } else {
+      out["camera"] = {{"model", "orthographic"}, {"scale", c.scale},  {"cx", c.cx}, {"cy", c.cy},
+                       {"width", c.width},        {"height", c.height}};
+    }
+  }
+  out["points"] = nlohmann::json::array();
+  for (const MeasuredPoint& m : set.points) {
+    nlohmann::json p;
+    if (m.is_3d) {
+      p["xyz"] = Vector(m.xyz);
+      p["cov"] = Matrix(m.cov3);
+    } else {
+      p["uv"] = Vector(m.uv);
+      p["cov"] = Matrix(m.cov2);
+    }
+    if (!m.label.empty()) p["label"] = m.label;
+    out["points"].push_back(p);
+  }
+  return out;
+}
+
+nlohmann::json TruthJson(const ConstraintGraph& graph, const Values& truth,
+                         const std::vector<std::string>& matches) {
+  GaussianState state;
+  state.blocks = graph.blocks;
+  state.mean = truth;
+  state.covariance = Eigen::MatrixXd::Zero(graph.tangent_dim(), graph.tangent_dim());
+  nlohmann::json out;
+  out["components"] = nlohmann::json::object();
+  out["points"] = nlohmann::json::object();
+  for (const Component& c : graph.components) {
+    const Block& b = graph.blocks[c.block];
+    if (c.rigid) {
+      const Eigen::Quaterniond q = truth.poses[b.index].rotation.normalized();
+      out["components"][c.name] = {{"position", Vector(truth.poses[b.index].translation)},
+                                   {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
+    } else {
+      out["points"][c.name] = {{"xyz", Vector(truth.points[b.index])}};
+    }
+  }
+  out["joints"] = nlohmann::json::object();
+  for (const JointEstimate& j : EstimateJoints(graph, state))
+    out["joints"][j.name] = {{"value", j.value}};
+  out["matches"] = nlohmann::json::array();
+  for (const std::string& m : matches)
+    out["matches"].push_back(m.empty() ? nlohmann::json() : nlohmann::json(m));
   return out;
 }
 

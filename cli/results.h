@@ -8,11 +8,17 @@
 #include "constraints/graph.h"
 #include "interp/solve.h"
 #include "kernel/measurement_set.h"
+#include "kernel/values.h"
 
 namespace cfuse::cli {
 
 nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& set,
                             const Solution& solution, double time_ms);
+
+// A measurement file (docs/formats.md) and the truth file `simulate` writes beside it.
+nlohmann::json MeasurementsJson(const MeasurementSet& set);
+nlohmann::json TruthJson(const ConstraintGraph& graph, const Values& truth,
+                         const std::vector<std::string>& matches);
 
 // The value and standard deviation of every joint with a variable, from the estimate.
 struct JointEstimate {

@@ -6,6 +6,7 @@
 
 #include "kernel/measurements/image_point.h"
 #include "kernel/measurements/point3.h"
+#include "kernel/measurements/stacked.h"
 
 namespace cfuse {
 namespace {
@@ -185,26 +186,57 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   scale.rotation = options.prior_rotation_sigma;
   scale.slack = options.prior_slack_sigma;
   solution.state = MakePrior(graph.blocks, initial, scale);
+  // One factor per single point measurement, and one per rigid component stacking all its
+  // measurements (measurements/stacked.h), in the order of their first measurement.
   std::vector<Factor> factors;
+  std::vector<int> component_factor(graph.components.size(), -1);
+  std::vector<std::vector<std::shared_ptr<const ResidualFunction>>> parts;
+  std::vector<std::vector<Eigen::MatrixXd>> noises;
   for (const ResolvedLabel& r : solution.labels) {
     const MeasuredPoint& m = set.points[r.measurement];
     const Component& comp = graph.components[r.component];
-    const std::string name = fmt::format("measurement {} ({})", r.measurement, m.label);
+    std::shared_ptr<const ResidualFunction> f;
     if (m.is_3d) {
-      auto f = comp.rigid ? std::make_shared<Point3Residual>(comp.points[r.feature].position, m.xyz)
-                          : std::make_shared<Point3Residual>(m.xyz);
-      factors.push_back({f, {comp.block}, m.cov3, name});
+      f = comp.rigid ? std::make_shared<Point3Residual>(comp.points[r.feature].position, m.xyz)
+                     : std::make_shared<Point3Residual>(m.xyz);
     } else {
-      auto f = comp.rigid ? std::make_shared<ImagePointResidual>(
-                                *set.camera, comp.points[r.feature].position, m.uv)
-                          : std::make_shared<ImagePointResidual>(*set.camera, m.uv);
-      factors.push_back({f, {comp.block}, m.cov2, name});
+      f = comp.rigid ? std::make_shared<ImagePointResidual>(*set.camera,
+                                                            comp.points[r.feature].position, m.uv)
+                     : std::make_shared<ImagePointResidual>(*set.camera, m.uv);
+    }
+    const Eigen::MatrixXd noise = m.is_3d ? Eigen::MatrixXd(m.cov3) : Eigen::MatrixXd(m.cov2);
+    if (!comp.rigid) {
+      factors.push_back(
+          {f, {comp.block}, noise, fmt::format("measurement {} ({})", r.measurement, m.label)});
+      parts.emplace_back();
+      noises.emplace_back();
+      continue;
+    }
+    int& k = component_factor[r.component];
+    if (k < 0) {
+      k = static_cast<int>(factors.size());
+      factors.push_back({nullptr, {comp.block}, {}, fmt::format("measurements of {}", comp.name)});
+      parts.emplace_back();
+      noises.emplace_back();
+    }
+    parts[k].push_back(f);
+    noises[k].push_back(noise);
+  }
+  for (size_t k = 0; k < factors.size(); ++k) {
+    if (factors[k].residual) continue;
+    factors[k].residual = std::make_shared<StackedResidual>(parts[k]);
+    const int dim = factors[k].residual->dimension();
+    factors[k].noise = Eigen::MatrixXd::Zero(dim, dim);
+    int offset = 0;
+    for (const Eigen::MatrixXd& n : noises[k]) {
+      factors[k].noise.block(offset, offset, n.rows(), n.cols()) = n;
+      offset += static_cast<int>(n.rows());
     }
   }
   for (const Constraint& c : graph.constraints)
     factors.push_back({c.residual, c.blocks, {}, c.name});
   SequenceOptions sequence = options.sequence;
-  sequence.constraint_tolerance = std::min(sequence.constraint_tolerance, 1e-10 * solution.extent);
+  sequence.constraint_tolerance = 1e-8 * solution.extent;
   solution.summary = FuseSequence(factors, &solution.state, sequence);
   for (size_t i = 0; i < factors.size(); ++i) {
     if (solution.summary.fusions[i].status == FusionSummary::Status::kContradiction) {

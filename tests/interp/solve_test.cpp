@@ -2,11 +2,14 @@
 // points through constraints, rigid components from image points alone.
 #include "interp/solve.h"
 
+#include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <random>
 
+#include "constraints/dof.h"
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "interp/simulate.h"
 #include "kernel/evaluate.h"
 #include "test_util.h"
 #include "vision/pnp.h"
@@ -140,6 +143,68 @@ TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "
   } catch (const InputError& e) {
     CHECK(std::string(e.what()) ==
           "meas.yaml:3:5: points[1]: error: unknown label 'box.c999': no such model point");
+  }
+}
+
+}  // namespace
+}  // namespace cfuse
+
+namespace cfuse {
+namespace {
+
+// NEES over `trials` simulated configurations: the estimate's error against its covariance,
+// on the covariance's range (its rank is the model's DOF). Returns the total and its DOF.
+std::pair<double, int> TotalNees(const ConstraintGraph& g, int trials, bool all_ok_required) {
+  double total = 0;
+  int dof = 0;
+  for (int trial = 0; trial < trials; ++trial) {
+    SimulateOptions options;
+    options.seed = 500 + trial;
+    options.labels = true;
+    const Simulation sim = Simulate(g, options);
+    const Solution s = Solve(g, sim.measurements);
+    INFO("trial " << trial << ": " << s.summary.passes << " passes, constraint residual "
+                  << s.summary.max_constraint_residual << ", contradictions "
+                  << s.contradictions.size());
+    if (all_ok_required) REQUIRE(s.summary.converged);
+    // Slacks are not part of the error: compare the geometry blocks only.
+    const Eigen::VectorXd e_full = LocalCoordinates(g.blocks, sim.truth, s.state.mean);
+    std::vector<int> index;
+    for (const Block& b : g.blocks) {
+      if (b.kind == BlockKind::kSlack) continue;
+      for (int i = 0; i < TangentDim(b.kind); ++i) index.push_back(b.tangent_offset + i);
+    }
+    const Eigen::VectorXd e = e_full(index);
+    const Eigen::MatrixXd P = s.state.covariance(index, index);
+    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(P);
+    const Eigen::VectorXd& l = eigen.eigenvalues();
+    for (int i = 0; i < l.size(); ++i) {
+      if (l[i] <= 1e-9 * l.maxCoeff()) continue;
+      const double proj = eigen.eigenvectors().col(i).dot(e);
+      total += proj * proj / l[i];
+      ++dof;
+    }
+  }
+  return {total, dof};
+}
+
+// The 99% interval of a chi-square with k DOF (Wilson-Hilferty).
+std::pair<double, double> ChiSquare99(double k) {
+  const double z = 2.5758, a = 2 / (9 * k);
+  return {k * std::pow(1 - a - z * std::sqrt(a), 3), k * std::pow(1 - a + z * std::sqrt(a), 3)};
+}
+
+TEST_CASE("solve: NEES over 200 simulated lamps and 200 hinged boxes lies in its 99% interval",
+          "[interp]") {
+  for (const char* file : {"examples/lamp.yaml", "examples/hinged-box.yaml"}) {
+    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    const auto [total, dof] = TotalNees(g, 200, true);
+    const auto [lo, hi] = ChiSquare99(dof);
+    INFO(file << ": total NEES " << total << " over " << dof << " DOF, 99% interval [" << lo << ", "
+              << hi << "]");
+    CHECK(dof == 200 * AnalyzeDof(g, g.nominal).dof);
+    CHECK(total > lo);
+    CHECK(total < hi);
   }
 }
 

@@ -1,0 +1,43 @@
+// Synthetic data for a model: a random configuration that satisfies every constraint, at a
+// random pose, and its measurements with noise, clutter and occlusion.
+//
+// The configuration: the nominal geometry perturbed at random (positions by a fraction of the
+// model's extent, rotations by a few tenths of a radian), then projected onto the constraint
+// surface by the batch solver (the closest point in the perturbation's metric; inequalities and
+// ranges hold through their slacks). The pose: a rotation uniform over SO(3); without a camera
+// a translation of the order of the model's size, with one a position in front of the camera
+// where every model point projects inside the image.
+#pragma once
+
+#include <optional>
+#include <random>
+#include <string>
+#include <vector>
+
+#include "constraints/graph.h"
+#include "kernel/measurement_set.h"
+
+namespace cfuse {
+
+struct SimulateOptions {
+  unsigned seed = 1;
+  double noise = 0.002;          // 3D measurement sigma, metres
+  double pixel_noise = 1.0;      // 2D sigma, pixels (with a camera)
+  std::optional<Camera> camera;  // 2D measurements when given
+  double clutter = 0;            // extra points, as a ratio of the real ones
+  double occlusion = 0;          // fraction of the model points not measured
+  bool labels = false;           // keep labels (and the model's order) on the real points
+  double perturbation = 0.1;     // of the configuration, relative to the extent
+};
+
+struct Simulation {
+  Values truth;  // satisfies every constraint
+  MeasurementSet measurements;
+  std::vector<std::string> matches;  // per measurement: the true label, "" for clutter
+};
+
+// Throws InputError (at the model) when no configuration satisfying the constraints is found
+// or, with a camera, no pose puts the model inside the image.
+Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options);
+
+}  // namespace cfuse
