@@ -142,11 +142,13 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     }
   }
 
-  // Joseph form on the fused directions: P1 = P0 - K Hu P0 - P0 Huᵀ Kᵀ + K (Hu P0 Huᵀ + Ru) Kᵀ,
-  // Hu = Uᵀ H (k x a) embedded in the touched columns.
+  // K is the optimal gain for the final linearisation (K = P0 Huᵀ Su⁻¹ with Su = U Λ Uᵀ's kept
+  // part, Hu = Uᵀ H embedded in the touched columns), for which the Joseph form
+  // P0 - K Hu P0 - P0 Huᵀ Kᵀ + K Su Kᵀ equals P0 - K Hu P0: one product instead of three.
+  // Symmetrising afterwards keeps it symmetric; the tests check it stays PSD.
   const Eigen::MatrixXd HuP0 = HtU.transpose() * P0_na.transpose();  // k x n
-  const Eigen::MatrixXd Su = HtU.transpose() * P0_aa * HtU + U.transpose() * R * U;
-  Eigen::MatrixXd P1 = P0 - K * HuP0 - HuP0.transpose() * K.transpose() + K * Su * K.transpose();
+  Eigen::MatrixXd P1 = P0;
+  P1.noalias() -= K * HuP0;
 
   // Move the mean and the covariance to the chart at x0 ⊞ δ*.
   Retract(state->blocks, delta, &state->mean);

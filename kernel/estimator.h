@@ -12,7 +12,8 @@
 //   until the step is below tolerance (the local iterations of §5.1, i.e. Gauss-Newton on the
 //   prior plus this factor), then
 //   mean      x1 = x0 ⊞ δ*,
-//   covariance P1 = (I - K H) P0 (I - K H)ᵀ + K R Kᵀ  (Joseph form: symmetric and PSD),
+//   covariance P1 = P0 - K H P0, symmetrised (with the optimal gain this equals the Joseph
+//              form (I - K H) P0 (I - K H)ᵀ + K R Kᵀ at a third of the cost),
 //   reset     P1 <- G P1 Gᵀ, G = Jr(δθ*) on every rotation block, I elsewhere, which moves the
 //             covariance from the chart at x0 to the chart at x1.
 //
