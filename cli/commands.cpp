@@ -121,17 +121,18 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+    if (std::none_of(set.points.begin(), set.points.end(),
+                     [](const MeasuredPoint& p) { return !p.label.empty(); })) {
+      throw InputError(SourceLocation(options.measurements),
+                       "no labelled points: solve needs labels (unlabelled points are for "
+                       "`cfuse interpret`)");
+    }
     const auto start = std::chrono::steady_clock::now();
     SolveOptions solve_options;
     solve_options.pose_from_projections = &vision::PoseFromProjections;
     const Solution solution = Solve(graph, set, solve_options);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (solution.labels.empty()) {
-      throw InputError(SourceLocation(options.measurements),
-                       "no labelled points: solve needs labels (unlabelled points are for "
-                       "`cfuse interpret`)");
-    }
     const std::string text = SolutionJson(graph, set, solution, ms).dump(2) + "\n";
     if (options.output.empty()) {
       out << text;
