@@ -32,6 +32,14 @@ struct BlockState {
   const T& slack() const { return t.x(); }
 };
 
+// A model point in the world: a single-point component's position (on_pose false), or the
+// feature point at `position_in_component` of a rigid component, R x + t.
+template <typename T>
+Vector3<T> ModelPointInWorld(const BlockState<T>& s, bool on_pose,
+                             const Eigen::Vector3d& position_in_component) {
+  return on_pose ? Vector3<T>(s.R * position_in_component.cast<T>() + s.t) : s.t;
+}
+
 class ResidualFunction {
  public:
   virtual ~ResidualFunction() = default;

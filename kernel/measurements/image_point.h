@@ -28,7 +28,7 @@ class ImagePointResidual : public AutoDiffResidual<ImagePointResidual> {
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
-    const Vector3<T> p = on_pose_ ? Vector3<T>(x[0].R * position_.cast<T>() + x[0].t) : x[0].t;
+    const Vector3<T> p = ModelPointInWorld(x[0], on_pose_, position_);
     const Eigen::Matrix<T, 2, 1> uv = camera_.Project<T>(p);
     r[0] = uv[0] - T(measured_[0]);
     r[1] = uv[1] - T(measured_[1]);

@@ -23,7 +23,7 @@ class Point3Residual : public AutoDiffResidual<Point3Residual> {
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
-    const Vector3<T> p = on_pose_ ? Vector3<T>(x[0].R * position_.cast<T>() + x[0].t) : x[0].t;
+    const Vector3<T> p = ModelPointInWorld(x[0], on_pose_, position_);
     for (int i = 0; i < 3; ++i) r[i] = p[i] - T(measured_[i]);
   }
 
