@@ -32,6 +32,31 @@ bool AbsoluteOrientation(const std::vector<Eigen::Vector3d>& from,
   return true;
 }
 
+// Model points (in some frame) paired with their measurements, 3D and 2D apart.
+struct Correspondences {
+  std::vector<Eigen::Vector3d> model3, measured3, model2;
+  std::vector<Eigen::Vector2d> measured2;
+
+  void Add(const Eigen::Vector3d& model, const MeasuredPoint& m) {
+    if (m.is_3d) {
+      model3.push_back(model);
+      measured3.push_back(m.xyz);
+    } else {
+      model2.push_back(model);
+      measured2.push_back(m.uv);
+    }
+  }
+};
+
+// measured_from_model in closed form: absolute orientation from 3D points, else the PnP solver
+// from image points; false when neither has enough points.
+bool ClosedFormPose(const Correspondences& k, const MeasurementSet& set,
+                    const SolveOptions& options, Rigid3d* pose) {
+  if (AbsoluteOrientation(k.model3, k.measured3, pose)) return true;
+  return set.camera && k.model2.size() >= 4 && options.pose_from_projections &&
+         options.pose_from_projections(*set.camera, k.model2, k.measured2, pose);
+}
+
 Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
   return v.poses[g.blocks[g.components[component].block].index];
 }
@@ -117,29 +142,21 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   solution.extent = ModelExtent(graph);
 
   // 1. A global rigid guess from all labelled points against the nominal geometry.
-  std::vector<Eigen::Vector3d> model3, measured3, model2;
-  std::vector<Eigen::Vector2d> measured2;
+  Correspondences global;
+  std::vector<Correspondences> per_component(graph.components.size());
   for (const ResolvedLabel& r : solution.labels) {
     const MeasuredPoint& m = set.points[r.measurement];
-    const Eigen::Vector3d nominal = ModelPoint(graph, graph.nominal, r.component, r.feature);
-    if (m.is_3d) {
-      model3.push_back(nominal);
-      measured3.push_back(m.xyz);
-    } else {
-      model2.push_back(nominal);
-      measured2.push_back(m.uv);
-    }
+    const Component& comp = graph.components[r.component];
+    global.Add(ModelPoint(graph, graph.nominal, r.component, r.feature), m);
+    per_component[r.component].Add(
+        comp.rigid ? comp.points[r.feature].position : Eigen::Vector3d::Zero(), m);
   }
   Rigid3d world_from_nominal;
-  if (!AbsoluteOrientation(model3, measured3, &world_from_nominal)) {
-    if (model3.size() == 1 || model3.size() == 2) {
-      world_from_nominal = Rigid3d(Eigen::Quaterniond::Identity(), measured3[0] - model3[0]);
-    }
-    if (set.camera && model2.size() >= 4 && options.pose_from_projections) {
-      Rigid3d pose;
-      if (options.pose_from_projections(*set.camera, model2, measured2, &pose))
-        world_from_nominal = pose;
-    }
+  if (!ClosedFormPose(global, set, options, &world_from_nominal) &&
+      (global.model3.size() == 1 || global.model3.size() == 2)) {
+    // One or two 3D points: a translation at least.
+    world_from_nominal =
+        Rigid3d(Eigen::Quaterniond::Identity(), global.measured3[0] - global.model3[0]);
   }
   Values initial = graph.nominal;
   for (Rigid3d& pose : initial.poses) pose = world_from_nominal * pose;
@@ -148,36 +165,18 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   // 2. Each component's own closed-form start where its labels allow one.
   for (size_t c = 0; c < graph.components.size(); ++c) {
     const Component& comp = graph.components[c];
-    std::vector<Eigen::Vector3d> local3, world3, local2;
-    std::vector<Eigen::Vector2d> image2;
-    for (const ResolvedLabel& r : solution.labels) {
-      if (r.component != static_cast<int>(c)) continue;
-      const MeasuredPoint& m = set.points[r.measurement];
-      const Eigen::Vector3d local =
-          comp.rigid ? comp.points[r.feature].position : Eigen::Vector3d::Zero();
-      if (m.is_3d) {
-        local3.push_back(local);
-        world3.push_back(m.xyz);
-      } else {
-        local2.push_back(local);
-        image2.push_back(m.uv);
-      }
-    }
+    const Correspondences& k = per_component[c];
     if (!comp.rigid) {
-      if (!world3.empty()) {
+      if (!k.measured3.empty()) {
         Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-        for (const Eigen::Vector3d& p : world3) mean += p;
-        initial.points[graph.blocks[comp.block].index] = mean / static_cast<double>(world3.size());
+        for (const Eigen::Vector3d& p : k.measured3) mean += p;
+        initial.points[graph.blocks[comp.block].index] =
+            mean / static_cast<double>(k.measured3.size());
       }
       continue;
     }
     Rigid3d pose;
-    if (AbsoluteOrientation(local3, world3, &pose)) {
-      PoseOf(graph, initial, static_cast<int>(c)) = pose;
-    } else if (set.camera && local2.size() >= 4 && options.pose_from_projections &&
-               options.pose_from_projections(*set.camera, local2, image2, &pose)) {
-      PoseOf(graph, initial, static_cast<int>(c)) = pose;
-    }
+    if (ClosedFormPose(k, set, options, &pose)) PoseOf(graph, initial, static_cast<int>(c)) = pose;
   }
 
   // 3. The prior, and 4. the factors.
