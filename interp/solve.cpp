@@ -52,9 +52,12 @@ struct Correspondences {
 // from image points; false when neither has enough points.
 bool ClosedFormPose(const Correspondences& k, const MeasurementSet& set,
                     const SolveOptions& options, Rigid3d* pose) {
-  if (AbsoluteOrientation(k.model3, k.measured3, pose)) return true;
-  return set.camera && k.model2.size() >= 4 && options.pose_from_projections &&
-         options.pose_from_projections(*set.camera, k.model2, k.measured2, pose);
+  Rigid3d found;  // *pose is written only on success
+  const bool ok = AbsoluteOrientation(k.model3, k.measured3, &found) ||
+                  (set.camera && k.model2.size() >= 4 && options.pose_from_projections &&
+                   options.pose_from_projections(*set.camera, k.model2, k.measured2, &found));
+  if (ok) *pose = found;
+  return ok;
 }
 
 Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
