@@ -97,6 +97,7 @@ BatchSummary SolveBatch(const std::vector<Factor>& factors, GaussianState* state
     P.middleCols(b.tangent_offset, 3) = (P.middleCols(b.tangent_offset, 3) * G.transpose()).eval();
   }
   state->covariance = 0.5 * (P + P.transpose());
+  state->groups.MergeAll();
   for (const Factor& f : factors) {
     if (!f.is_constraint()) continue;
     Eigen::VectorXd ri;

@@ -1,7 +1,9 @@
 #include "kernel/estimator.h"
 
 #include <Eigen/Eigenvalues>
+#include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "kernel/check.h"
 #include "kernel/evaluate.h"
@@ -51,8 +53,87 @@ GaussianState MakePrior(const std::vector<Block>& blocks, const Values& mean,
     }
   }
   state.covariance = state.prior_variance.asDiagonal();
+  state.groups = CorrelationGroups(static_cast<int>(blocks.size()));
   return state;
 }
+
+namespace {
+
+// A matrix view on a buffer that only grows, so that steady-state updates do not allocate.
+Eigen::Map<Eigen::MatrixXd> Scratch(std::vector<double>* storage, int rows, int cols) {
+  const size_t size = static_cast<size_t>(rows) * static_cast<size_t>(cols);
+  if (storage->size() < size) storage->resize(size);
+  return {storage->data(), rows, cols};
+}
+
+Eigen::Map<Eigen::VectorXd> ScratchVector(std::vector<double>* storage, int size) {
+  if (storage->size() < static_cast<size_t>(size)) storage->resize(size);
+  return {storage->data(), size};
+}
+
+// A maximal run of consecutive covariance coordinates [first, first + size) of the support,
+// at `at` in the support's order. The support is a few such runs (blocks join groups mostly in
+// the order they were declared), so the updates below are dense block products.
+struct Run {
+  int first, at, size;
+};
+
+struct Workspace {
+  std::vector<int> index;           // the factor's tangent coordinates, slot order
+  std::vector<int> support_blocks;  // blocks correlated with the factor's, by tangent offset
+  std::vector<int> support;         // their tangent coordinates
+  std::vector<int> position;        // where each of `index` sits in `support`
+  std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, next, r, H, S, S_init, innovation;
+  std::vector<double> U, lambda, HtU, PSH, W;
+  std::vector<int> keep;
+  std::vector<Run> runs;  // of the support
+  Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
+};
+
+void FindRuns(const std::vector<int>& S, std::vector<Run>* runs) {
+  runs->clear();
+  for (int i = 0; i < static_cast<int>(S.size()); ++i) {
+    if (!runs->empty() && runs->back().first + runs->back().size == S[i]) {
+      ++runs->back().size;
+    } else {
+      runs->push_back({S[i], i, 1});
+    }
+  }
+}
+
+// P(S, S) -= W Wᵀ over the support S, keeping P exactly symmetric: each lower block is
+// computed once and mirrored.
+void SubtractOuterProduct(const std::vector<Run>& runs, const Eigen::Map<Eigen::MatrixXd>& W,
+                          Eigen::MatrixXd* P) {
+  for (size_t j = 0; j < runs.size(); ++j) {
+    const Run& c = runs[j];
+    const auto Wc = W.middleRows(c.at, c.size);
+    auto diagonal = P->block(c.first, c.first, c.size, c.size);
+    diagonal.selfadjointView<Eigen::Lower>().rankUpdate(Wc, -1.0);
+    diagonal.triangularView<Eigen::StrictlyUpper>() = diagonal.transpose();
+    for (size_t i = j + 1; i < runs.size(); ++i) {
+      const Run& r = runs[i];
+      auto lower = P->block(r.first, c.first, r.size, c.size);
+      lower.noalias() -= W.middleRows(r.at, r.size) * Wc.transpose();
+      P->block(c.first, r.first, c.size, r.size) = lower.transpose();
+    }
+  }
+}
+
+// Moves rows and columns o..o+2 (a rotation block, inside the support) from the chart at x0
+// to the chart at x0 ⊞ δ: P <- G P Gᵀ with G = Jr(δθ) on that block, exactly symmetric.
+void ResetRotationBlock(const std::vector<Run>& runs, int o, const Eigen::Matrix3d& G,
+                        Eigen::MatrixXd* P) {
+  const Eigen::Matrix3d diagonal = G * P->block<3, 3>(o, o) * G.transpose();
+  for (const Run& run : runs) {
+    const Eigen::Matrix<double, 3, Eigen::Dynamic> rows = G * P->block(o, run.first, 3, run.size);
+    P->block(o, run.first, 3, run.size) = rows;
+    P->block(run.first, o, run.size, 3) = rows.transpose();
+  }
+  P->block<3, 3>(o, o) = 0.5 * (diagonal + diagonal.transpose());
+}
+
+}  // namespace
 
 FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptions& options,
                    const Values* linearize_at) {
@@ -61,51 +142,116 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   FusionSummary summary;
   summary.rows = m;
   CFUSE_CHECK(factor.is_constraint() || (factor.noise.rows() == m && factor.noise.cols() == m));
+  const std::vector<Block>& blocks = state->blocks;
+  thread_local Workspace ws;
 
-  // The tangent coordinates the factor touches, in slot order (the Jacobian's columns).
-  std::vector<int> index;
+  // The tangent coordinates the factor touches (the Jacobian's columns), and its support:
+  // every coordinate of the blocks correlated with them.
+  ws.index.clear();
   for (int b : factor.blocks) {
-    const Block& block = state->blocks.at(b);
-    for (int i = 0; i < TangentDim(block.kind); ++i) index.push_back(block.tangent_offset + i);
+    const Block& block = blocks.at(b);
+    for (int i = 0; i < TangentDim(block.kind); ++i) ws.index.push_back(block.tangent_offset + i);
   }
-  const int a = static_cast<int>(index.size());
-  const Eigen::MatrixXd& P0 = state->covariance;
-  Eigen::MatrixXd P0_na(n, a), P0_aa(a, a);  // P0 restricted to the touched columns
-  for (int j = 0; j < a; ++j) P0_na.col(j) = P0.col(index[j]);
-  for (int i = 0; i < a; ++i) P0_aa.row(i) = P0_na.row(index[i]);
-  const Eigen::MatrixXd R = factor.is_constraint() ? Eigen::MatrixXd::Zero(m, m) : factor.noise;
+  const int a = static_cast<int>(ws.index.size());
+  CFUSE_CHECK(a == f.arity());
+  if (state->groups.num_blocks() == static_cast<int>(blocks.size())) {
+    state->groups.Support(factor.blocks, &ws.support_blocks);
+  } else {
+    ws.support_blocks.resize(blocks.size());
+    std::iota(ws.support_blocks.begin(), ws.support_blocks.end(), 0);
+  }
+  std::sort(ws.support_blocks.begin(), ws.support_blocks.end(),
+            [&](int x, int y) { return blocks[x].tangent_offset < blocks[y].tangent_offset; });
+  ws.support.clear();
+  for (int b : ws.support_blocks) {
+    for (int i = 0; i < TangentDim(blocks[b].kind); ++i) {
+      ws.support.push_back(blocks[b].tangent_offset + i);
+    }
+  }
+  const std::vector<int>& S = ws.support;
+  const int s = static_cast<int>(S.size());
+  FindRuns(S, &ws.runs);
+  ws.position.resize(a);
+  for (int j = 0; j < a; ++j) {
+    ws.position[j] =
+        static_cast<int>(std::lower_bound(S.begin(), S.end(), ws.index[j]) - S.begin());
+    CFUSE_CHECK(ws.position[j] < s && S[ws.position[j]] == ws.index[j]);
+  }
 
-  Eigen::VectorXd delta = linearize_at ? LocalCoordinates(state->blocks, state->mean, *linearize_at)
-                                       : Eigen::VectorXd::Zero(n);
-  Eigen::VectorXd r;
-  Eigen::MatrixXd H, K;  // m x a, n x k
-  Eigen::MatrixXd U;     // m x k: the fused directions of the residual
-  Eigen::MatrixXd HtU;
+  const Eigen::MatrixXd& P = state->covariance;
+  CFUSE_CHECK(P.rows() == n && P.cols() == n);
+  Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws.P_sa, s, a);
+  for (int j = 0; j < a; ++j) {
+    for (const Run& run : ws.runs) {
+      P_sa.col(j).segment(run.at, run.size) = P.col(ws.index[j]).segment(run.first, run.size);
+    }
+  }
+  Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws.P_aa, a, a);
+  for (int i = 0; i < a; ++i) P_aa.row(i) = P_sa.row(ws.position[i]);
+  Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws.prior_aa, a);
+  for (int j = 0; j < a; ++j) prior_a(j) = state->prior_variance[ws.index[j]];
+
+  // δ over the support; the iterations start at `linearize_at` if given.
+  Eigen::Map<Eigen::VectorXd> delta = ScratchVector(&ws.delta, s);
+  Eigen::Map<Eigen::VectorXd> delta_a = ScratchVector(&ws.delta_a, a);
+  delta.setZero();
+  delta_a.setZero();
+  if (linearize_at) {
+    int column = 0;
+    for (int b : factor.blocks) {
+      LocalCoordinatesOfBlock(blocks[b], state->mean, *linearize_at, delta_a.data() + column);
+      column += TangentDim(blocks[b].kind);
+    }
+    for (int j = 0; j < a; ++j) delta(ws.position[j]) = delta_a(j);
+  }
+
+  Eigen::Map<Eigen::VectorXd> r = ScratchVector(&ws.r, m);
+  Eigen::Map<Eigen::MatrixXd> H = Scratch(&ws.H, m, a);
+  Eigen::Map<Eigen::MatrixXd> S_mat = Scratch(&ws.S, m, m), S_init = Scratch(&ws.S_init, m, m);
+  Eigen::Map<Eigen::VectorXd> innovation = ScratchVector(&ws.innovation, m);
+  Eigen::Map<Eigen::VectorXd> next = ScratchVector(&ws.next, s);
+  Eigen::Map<Eigen::MatrixXd> U = Scratch(&ws.U, m, m);
+  Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws.lambda, m);
+  int k = 0;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    EvaluateResidual(f, state->blocks, factor.blocks, state->mean, &r, &H, &delta);
+    EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
     if (!r.allFinite() || !H.allFinite()) {
       summary.status = FusionSummary::Status::kInvalid;
       return summary;
     }
-    const Eigen::MatrixXd S = H * P0_aa * H.transpose() + R;
-    Eigen::MatrixXd S_init = H * state->prior_variance(index).asDiagonal() * H.transpose();
-    Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(0.5 * (S + S.transpose()));
-    const Eigen::VectorXd innovation = H * delta(index) - r;
-    std::vector<int> keep;
+    S_mat.noalias() = H * P_aa * H.transpose();
+    S_init.noalias() = H * prior_a.asDiagonal() * H.transpose();
+    if (!factor.is_constraint()) {
+      S_mat += factor.noise;
+      S_init += factor.noise;
+    }
+    innovation.noalias() = H * delta_a;
+    innovation -= r;
+
+    // The directions of the residual space, with their variances: the rows themselves for a
+    // single row, else the eigenvectors of S.
+    if (m == 1) {
+      U(0, 0) = 1;
+      lambda(0) = S_mat(0, 0);
+    } else {
+      ws.eigen.compute(0.5 * (S_mat + S_mat.transpose()));
+      U = ws.eigen.eigenvectors();
+      lambda = ws.eigen.eigenvalues();
+    }
+    ws.keep.clear();
     double contradiction = 0;
     for (int i = 0; i < m; ++i) {
-      const Eigen::VectorXd u = eigen.eigenvectors().col(i);
-      const double initial = u.dot(S_init * u) + u.dot(R * u);
-      const double variance = eigen.eigenvalues()[i];
-      if (initial <= 0 || variance <= options.degeneracy_tolerance * initial) {
+      const double initial = U.col(i).dot(S_init * U.col(i));
+      if (initial <= 0 || lambda(i) <= options.degeneracy_tolerance * initial) {
         // Already determined: the linearised factor is consistent only if its innovation has
         // no component along u (the state cannot move along Hᵀu).
         if (iteration == 0 && initial > 0) {
-          contradiction = std::max(contradiction, std::abs(u.dot(innovation)) / std::sqrt(initial));
+          contradiction =
+              std::max(contradiction, std::abs(U.col(i).dot(innovation)) / std::sqrt(initial));
         }
         continue;
       }
-      keep.push_back(i);
+      ws.keep.push_back(i);
     }
     if (iteration == 0) {
       summary.contradiction = contradiction;
@@ -113,28 +259,32 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
         summary.status = FusionSummary::Status::kContradiction;
         return summary;
       }
-      if (keep.empty()) {
+      if (ws.keep.empty()) {
         summary.status = FusionSummary::Status::kRedundant;
         return summary;
       }
-      summary.rows_fused = static_cast<int>(keep.size());
+      summary.rows_fused = static_cast<int>(ws.keep.size());
     }
-    const int k = static_cast<int>(keep.size());
-    U.resize(m, k);
-    Eigen::VectorXd lambda(k);
+    // Later iterations keep the directions of the first (a direction's status cannot change
+    // between them without a contradiction, which the first iteration refused).
+    k = static_cast<int>(ws.keep.size());
     for (int j = 0; j < k; ++j) {
-      U.col(j) = eigen.eigenvectors().col(keep[j]);
-      lambda[j] = eigen.eigenvalues()[keep[j]];
+      U.col(j) = U.col(ws.keep[j]);
+      lambda(j) = lambda(ws.keep[j]);
     }
-    HtU = H.transpose() * U;  // a x k
-    K = P0_na * HtU * lambda.cwiseInverse().asDiagonal();
+    const auto Uk = U.leftCols(k);
+    const auto lambda_k = lambda.topRows(k);
+    Eigen::Map<Eigen::MatrixXd> HtU = Scratch(&ws.HtU, a, k), PSH = Scratch(&ws.PSH, s, k);
+    HtU.noalias() = H.transpose() * Uk;
+    PSH.noalias() = P_sa * HtU;
+    const Eigen::VectorXd projected = (Uk.transpose() * innovation).cwiseQuotient(lambda_k);
     if (iteration == 0) {
-      const Eigen::VectorXd projected = U.transpose() * innovation;
-      summary.innovation_nis = projected.dot(lambda.cwiseInverse().asDiagonal() * projected);
+      summary.innovation_nis = projected.dot(Uk.transpose() * innovation);
     }
-    const Eigen::VectorXd next = K * (U.transpose() * innovation);
+    next.noalias() = PSH * projected;
     const double step = (next - delta).lpNorm<Eigen::Infinity>();
     delta = next;
+    for (int j = 0; j < a; ++j) delta_a(j) = delta(ws.position[j]);
     summary.iterations = iteration + 1;
     if (step <= options.step_tolerance * (1 + delta.lpNorm<Eigen::Infinity>())) break;
     if (iteration + 1 == options.max_iterations && options.max_iterations > 1) {
@@ -142,24 +292,30 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     }
   }
 
-  // K is the optimal gain for the final linearisation (K = P0 Huᵀ Su⁻¹ with Su = U Λ Uᵀ's kept
-  // part, Hu = Uᵀ H embedded in the touched columns), for which the Joseph form
-  // P0 - K Hu P0 - P0 Huᵀ Kᵀ + K Su Kᵀ equals P0 - K Hu P0: one product instead of three.
-  // Symmetrising afterwards keeps it symmetric; the tests check it stays PSD.
-  const Eigen::MatrixXd HuP0 = HtU.transpose() * P0_na.transpose();  // k x n
-  Eigen::MatrixXd P1 = P0;
-  P1.noalias() -= K * HuP0;
+  // The covariance for the final linearisation: P0 - K Hu P0 with the optimal gain, i.e.
+  // P0 - W Wᵀ with W = P0 Huᵀ Λ^(-1/2) (equal to the Joseph form for this gain, at a third of
+  // the cost), on the support only.
+  Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
+  W.noalias() = Scratch(&ws.PSH, s, k) * lambda.topRows(k).cwiseSqrt().cwiseInverse().asDiagonal();
+  SubtractOuterProduct(ws.runs, W, &state->covariance);
 
   // Move the mean and the covariance to the chart at x0 ⊞ δ*.
-  Retract(state->blocks, delta, &state->mean);
-  for (const Block& b : state->blocks) {
-    if (b.kind != BlockKind::kPose) continue;
-    const Eigen::Matrix3d G = RightJacobianSO3(delta.segment<3>(b.tangent_offset));
-    const int o = b.tangent_offset;
-    P1.middleRows(o, 3) = (G * P1.middleRows(o, 3)).eval();
-    P1.middleCols(o, 3) = (P1.middleCols(o, 3) * G.transpose()).eval();
+  int offset = 0;
+  for (int b : ws.support_blocks) {
+    const Block& block = blocks[b];
+    RetractBlock(block, delta.data() + offset, &state->mean);
+    if (block.kind == BlockKind::kPose) {
+      const Eigen::Vector3d w = delta.segment<3>(offset);
+      if (!w.isZero()) {
+        ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w),
+                           &state->covariance);
+      }
+    }
+    offset += TangentDim(block.kind);
   }
-  state->covariance = 0.5 * (P1 + P1.transpose());
+  if (state->groups.num_blocks() == static_cast<int>(blocks.size())) {
+    state->groups.Merge(factor.blocks);
+  }
   if (summary.status == FusionSummary::Status::kFused && summary.rows_fused < m) {
     summary.status = FusionSummary::Status::kPartlyRedundant;
   }
@@ -169,11 +325,12 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
 double MaxConstraintResidual(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
                              const Values& values) {
   double worst = 0;
-  Eigen::VectorXd r;
+  thread_local std::vector<double> r;
   for (const Factor& f : factors) {
     if (!f.is_constraint()) continue;
-    EvaluateResidual(*f.residual, blocks, f.blocks, values, &r, nullptr);
-    worst = std::max(worst, r.lpNorm<Eigen::Infinity>());
+    r.resize(f.residual->dimension());
+    EvaluateResidualAt(*f.residual, blocks, f.blocks, values, nullptr, r.data(), nullptr);
+    for (double v : r) worst = std::max(worst, std::isnan(v) ? INFINITY : std::abs(v));
   }
   return worst;
 }

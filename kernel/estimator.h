@@ -17,6 +17,11 @@
 //   reset     P1 <- G P1 Gᵀ, G = Jr(δθ*) on every rotation block, I elsewhere, which moves the
 //             covariance from the chart at x0 to the chart at x1.
 //
+// Cost. Only the rows and columns of the blocks correlated with the factor's blocks change
+// (correlation_groups.h); the covariance is updated there by a symmetric rank-k product, k the
+// number of fused rows, and stays exactly symmetric. No allocation happens per update once
+// the scratch buffers have grown.
+//
 // Degenerate directions. Let S = U Λ Uᵀ. A direction u of the factor whose variance uᵀ S u is
 // negligible next to its variance under the initial prior (uᵀ S_init u, S_init = H P_init Hᵀ)
 // is already determined by constraints fused before: it is not inverted. If the factor's
@@ -28,6 +33,7 @@
 #include <span>
 #include <vector>
 
+#include "kernel/correlation_groups.h"
 #include "kernel/factor.h"
 #include "kernel/values.h"
 
@@ -38,6 +44,9 @@ struct GaussianState {
   Values mean;
   Eigen::MatrixXd covariance;      // tangent_dim x tangent_dim
   Eigen::VectorXd prior_variance;  // the diagonal of the initial prior, for degeneracy tests
+  // Blocks whose cross-covariances may be nonzero; updates touch only the groups their factor
+  // reaches. A state whose groups do not cover its blocks is treated as fully correlated.
+  CorrelationGroups groups;
 
   int dim() const { return static_cast<int>(covariance.rows()); }
 };

@@ -3,6 +3,7 @@
 #include <algorithm>
 
 #include "kernel/check.h"
+#include "kernel/so3.h"
 
 namespace cfuse {
 namespace {
@@ -26,43 +27,67 @@ BlockState<double> StateOf(const Block& b, const Values& values) {
   return s;
 }
 
-// base ⊞ delta in scalar T (values.h's chart).
-template <typename T>
-BlockState<T> Retracted(const Block& b, const BlockState<double>& base,
-                        const Eigen::Matrix<T, 6, 1>& delta) {
-  BlockState<T> s;
-  s.R = base.R.cast<T>();
-  s.t = base.t.cast<T>();
+// base ⊞ shift (values.h's chart); shift may be null (zero).
+BlockState<double> Shifted(const Block& b, const BlockState<double>& base, const double* shift) {
+  if (shift == nullptr) return base;
+  BlockState<double> s = base;
   switch (b.kind) {
     case BlockKind::kPoint:
-      s.t += delta.template head<3>();
+      s.t += Eigen::Map<const Eigen::Vector3d>(shift);
       break;
     case BlockKind::kPose:
-      s.R = s.R * ExpSO3<T>(delta.template head<3>());
-      s.t += delta.template segment<3>(3);
+      s.R = base.R * ExpSO3<double>(Eigen::Map<const Eigen::Vector3d>(shift));
+      s.t += Eigen::Map<const Eigen::Vector3d>(shift + 3);
       break;
     case BlockKind::kSlack:
-      s.t.x() += delta[0];
+      s.t.x() += shift[0];
       break;
   }
   return s;
 }
 
-// The state base ⊞ (shift + ε), where the coordinates [first, first + count) of ε carry
-// derivatives (index `derivative_offset` onwards, of `num_derivatives`).
-BlockState<Jet> Perturbed(const Block& b, const BlockState<double>& base, const double* shift,
-                          int first, int count, int derivative_offset, int num_derivatives) {
-  const int dim = TangentDim(b.kind);
-  Eigen::Matrix<Jet, 6, 1> delta;
-  for (int i = 0; i < dim; ++i) {
-    const double value = shift ? shift[i] : 0.0;
-    if (i >= first && i < first + count) {
-      delta[i] = Jet(value, num_derivatives, derivative_offset + i - first);
-    } else {
-      delta[i] = Jet(value, JetDerivatives::Zero(num_derivatives));
+// A Jet of `value` whose derivative vector (of n entries) is `unit` if seeded (0 <= seed < n),
+// else zero.
+Jet Seeded(double value, int n, int seed) {
+  return seed >= 0 ? Jet(value, n, seed) : Jet(value, JetDerivatives::Zero(n));
+}
+
+// The state (base ⊞ shift) ⊞ ε in Jets, where tangent coordinate i of the block carries the
+// derivative index seed0 + i when that lies in [0, n). Only first derivatives are needed, so
+// the rotation's are written directly: R Exp(shift + ε) = R' Exp(Jr(shift) ε) + O(ε²) with
+// R' = R Exp(shift), hence d R / d ε_k = R' [Jr(shift) e_k]x. This avoids the exponential
+// in Jets, the costliest part of differentiating a pose.
+void Perturbed(const Block& b, const BlockState<double>& base, const double* shift, int seed0,
+               int n, BlockState<Jet>* out) {
+  const BlockState<double> s = Shifted(b, base, shift);
+  auto seed = [&](int i) {
+    const int k = seed0 + i;
+    return k >= 0 && k < n ? k : -1;
+  };
+  switch (b.kind) {
+    case BlockKind::kPoint:
+    case BlockKind::kSlack: {
+      // R is unused by point and slack blocks: constants without derivatives.
+      for (int i = 0; i < 9; ++i) out->R(i) = Jet(s.R(i));
+      const int dim = TangentDim(b.kind);
+      for (int i = 0; i < 3; ++i) out->t[i] = i < dim ? Seeded(s.t[i], n, seed(i)) : Jet(s.t[i]);
+      break;
+    }
+    case BlockKind::kPose: {
+      const Eigen::Matrix3d Jr =
+          shift ? RightJacobianSO3(Eigen::Map<const Eigen::Vector3d>(shift))
+                : Eigen::Matrix3d::Identity();
+      for (int i = 0; i < 9; ++i) out->R(i) = Jet(s.R(i), JetDerivatives::Zero(n));
+      for (int k = 0; k < 3; ++k) {
+        const int d = seed(k);
+        if (d < 0) continue;
+        const Eigen::Matrix3d dR = s.R * Hat<double>(Jr.col(k));
+        for (int i = 0; i < 9; ++i) out->R(i).derivatives()[d] = dR(i);
+      }
+      for (int i = 0; i < 3; ++i) out->t[i] = Seeded(s.t[i], n, seed(3 + i));
+      break;
     }
   }
-  return Retracted<Jet>(b, base, delta);
 }
 
 }  // namespace
@@ -75,37 +100,40 @@ std::vector<BlockState<double>> GatherStates(const std::vector<Block>& graph_blo
   return states;
 }
 
-void EvaluateResidual(const ResidualFunction& f, const std::vector<Block>& graph_blocks,
-                      std::span<const int> blocks, const Values& values, Eigen::VectorXd* residual,
-                      Eigen::MatrixXd* jacobian, const Eigen::VectorXd* offset) {
+void EvaluateResidualAt(const ResidualFunction& f, const std::vector<Block>& graph_blocks,
+                        std::span<const int> blocks, const Values& values,
+                        const double* slot_offset, double* residual, double* jacobian) {
   CFUSE_CHECK(blocks.size() == f.slot_kinds().size());
+  // Scratch reused across calls: the estimator evaluates thousands of small residuals, and
+  // their allocations cost more than their arithmetic.
+  thread_local std::vector<BlockState<double>> base;
+  thread_local std::vector<BlockState<Jet>> states;
+  thread_local std::vector<Jet> r;
+  base.resize(blocks.size());
   for (size_t k = 0; k < blocks.size(); ++k) {
-    CFUSE_CHECK_MSG(graph_blocks.at(blocks[k]).kind == f.slot_kinds()[k], "slot kind mismatch");
+    const Block& b = graph_blocks.at(blocks[k]);
+    CFUSE_CHECK_MSG(b.kind == f.slot_kinds()[k], "slot kind mismatch");
+    base[k] = StateOf(b, values);
   }
-  const std::vector<BlockState<double>> base = GatherStates(graph_blocks, blocks, values);
-  auto shift_of = [&](const Block& b) -> const double* {
-    return offset ? offset->data() + b.tangent_offset : nullptr;
-  };
-  residual->resize(f.dimension());
-  if (offset == nullptr) {
-    f.Evaluate(std::span<const BlockState<double>>(base), residual->data());
-  } else {
-    std::vector<BlockState<double>> shifted(blocks.size());
-    for (size_t k = 0; k < blocks.size(); ++k) {
-      const Block& b = graph_blocks[blocks[k]];
-      CFUSE_CHECK(b.tangent_offset + TangentDim(b.kind) <= offset->size());
-      Eigen::Matrix<double, 6, 1> delta = Eigen::Matrix<double, 6, 1>::Zero();
-      delta.head(TangentDim(b.kind)) = offset->segment(b.tangent_offset, TangentDim(b.kind));
-      shifted[k] = Retracted<double>(b, base[k], delta);
-    }
-    f.Evaluate(std::span<const BlockState<double>>(shifted), residual->data());
-  }
-  if (jacobian == nullptr) return;
-
   const int arity = f.arity();
-  jacobian->setZero(f.dimension(), arity);
-  std::vector<Jet> r(f.dimension());
-  std::vector<BlockState<Jet>> states(blocks.size());
+  if (jacobian == nullptr) {
+    if (slot_offset != nullptr) {
+      int column = 0;
+      for (size_t k = 0; k < blocks.size(); ++k) {
+        const Block& b = graph_blocks[blocks[k]];
+        base[k] = Shifted(b, base[k], slot_offset + column);
+        column += TangentDim(b.kind);
+      }
+    }
+    f.Evaluate(std::span<const BlockState<double>>(base), residual);
+    return;
+  }
+
+  const int m = f.dimension();
+  Eigen::Map<Eigen::MatrixXd> J(jacobian, m, arity);
+  J.setZero();
+  r.resize(m);
+  states.resize(blocks.size());
   // Each pass differentiates with respect to the tangent coordinates [begin, end).
   for (int begin = 0; begin < arity; begin += kJetMaxDerivatives) {
     const int end = std::min(arity, begin + kJetMaxDerivatives);
@@ -113,20 +141,39 @@ void EvaluateResidual(const ResidualFunction& f, const std::vector<Block>& graph
     int column = 0;
     for (size_t k = 0; k < blocks.size(); ++k) {
       const Block& b = graph_blocks[blocks[k]];
-      const int dim = TangentDim(b.kind);
-      const int first = std::max(begin, column) - column;
-      const int last = std::min(end, column + dim) - column;
-      const int count = std::max(0, last - first);
-      states[k] = Perturbed(b, base[k], shift_of(b), first, count, column + first - begin, n);
-      column += dim;
+      Perturbed(b, base[k], slot_offset ? slot_offset + column : nullptr, column - begin, n,
+                &states[k]);
+      column += TangentDim(b.kind);
     }
     f.Evaluate(std::span<const BlockState<Jet>>(states), r.data());
-    for (int i = 0; i < f.dimension(); ++i) {
+    for (int i = 0; i < m; ++i) {
+      if (begin == 0) residual[i] = r[i].value();
       const JetDerivatives& d = r[i].derivatives();
       // A residual that does not depend on the state has an empty derivative vector.
-      if (d.size() == n) jacobian->block(i, begin, 1, n) = d.transpose();
+      if (d.size() == n) J.block(i, begin, 1, n) = d.transpose();
     }
   }
+}
+
+void EvaluateResidual(const ResidualFunction& f, const std::vector<Block>& graph_blocks,
+                      std::span<const int> blocks, const Values& values, Eigen::VectorXd* residual,
+                      Eigen::MatrixXd* jacobian, const Eigen::VectorXd* offset) {
+  Eigen::VectorXd slot_offset;
+  if (offset != nullptr) {
+    slot_offset.resize(f.arity());
+    int column = 0;
+    for (int id : blocks) {
+      const Block& b = graph_blocks.at(id);
+      const int dim = TangentDim(b.kind);
+      CFUSE_CHECK(b.tangent_offset + dim <= offset->size());
+      slot_offset.segment(column, dim) = offset->segment(b.tangent_offset, dim);
+      column += dim;
+    }
+  }
+  residual->resize(f.dimension());
+  if (jacobian) jacobian->resize(f.dimension(), f.arity());
+  EvaluateResidualAt(f, graph_blocks, blocks, values, offset ? slot_offset.data() : nullptr,
+                     residual->data(), jacobian ? jacobian->data() : nullptr);
 }
 
 }  // namespace cfuse

@@ -32,4 +32,11 @@ void EvaluateResidual(const ResidualFunction& f, const std::vector<Block>& graph
                       std::span<const int> blocks, const Values& values, Eigen::VectorXd* residual,
                       Eigen::MatrixXd* jacobian, const Eigen::VectorXd* offset = nullptr);
 
+// The same into caller-owned storage, without allocating: `residual` holds dimension()
+// numbers; `jacobian`, if not null, dimension() x arity() in column-major order;
+// `slot_offset`, if not null, the arity() tangent coordinates of δ in slot order.
+void EvaluateResidualAt(const ResidualFunction& f, const std::vector<Block>& graph_blocks,
+                        std::span<const int> blocks, const Values& values,
+                        const double* slot_offset, double* residual, double* jacobian);
+
 }  // namespace cfuse

@@ -41,6 +41,11 @@ struct Values {
   std::vector<double> slacks;
 };
 
+// One block: values <- values ⊞ delta, delta of TangentDim(b.kind) numbers.
+void RetractBlock(const Block& b, const double* delta, Values* values);
+// The TangentDim(b.kind) numbers δ with to = from ⊞ δ for block b.
+void LocalCoordinatesOfBlock(const Block& b, const Values& from, const Values& to, double* delta);
+
 // values <- values ⊞ delta, delta of size `tangent dimension` laid out by Block::tangent_offset.
 void Retract(const std::vector<Block>& blocks, const Eigen::VectorXd& delta, Values* values);
 

@@ -254,7 +254,8 @@ TEST_CASE(
     const double measurement_error = LocalCoordinates(g.blocks, truth, measured).squaredNorm();
     factors.insert(factors.end(), constraints.begin(), constraints.end());
     GaussianState state = MakePrior(g.blocks, g.nominal, PriorScale{});
-    REQUIRE(FuseSequence(factors, &state).converged);
+    const SequenceSummary ss = FuseSequence(factors, &state);
+    REQUIRE(ss.converged);
     const Eigen::VectorXd e = LocalCoordinates(g.blocks, truth, state.mean);
     // The covariance has rank 11 (the lamp's DOF): NEES on its range.
     Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(state.covariance);
