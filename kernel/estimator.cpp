@@ -1,5 +1,6 @@
 #include "kernel/estimator.h"
 
+#include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <cmath>
@@ -84,10 +85,11 @@ struct Workspace {
   std::vector<int> support;         // their tangent coordinates
   std::vector<int> position;        // where each of `index` sits in `support`
   std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, next, r, H, S, S_init, innovation;
-  std::vector<double> U, lambda, HtU, PSH, W;
+  std::vector<double> U, lambda, W, HP, A, z;
   std::vector<int> keep;
   std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
+  Eigen::LLT<Eigen::MatrixXd> llt;
 };
 
 void FindRuns(const std::vector<int>& S, std::vector<Run>* runs) {
@@ -101,21 +103,23 @@ void FindRuns(const std::vector<int>& S, std::vector<Run>* runs) {
   }
 }
 
-// P(S, S) -= W Wᵀ over the support S, keeping P exactly symmetric: each lower block is
-// computed once and mirrored.
+// P(S, S) -= W Wᵀ over the support S, one column of W at a time. Each rank-one step updates
+// both P(i, j) and P(j, i) with the same product w_i w_j (multiplication commutes exactly in
+// floating point), so P stays exactly symmetric without a triangular update and a mirror copy,
+// and every inner loop runs down a contiguous column.
 void SubtractOuterProduct(const std::vector<Run>& runs, const Eigen::Map<Eigen::MatrixXd>& W,
                           Eigen::MatrixXd* P) {
-  for (size_t j = 0; j < runs.size(); ++j) {
-    const Run& c = runs[j];
-    const auto Wc = W.middleRows(c.at, c.size);
-    auto diagonal = P->block(c.first, c.first, c.size, c.size);
-    diagonal.selfadjointView<Eigen::Lower>().rankUpdate(Wc, -1.0);
-    diagonal.triangularView<Eigen::StrictlyUpper>() = diagonal.transpose();
-    for (size_t i = j + 1; i < runs.size(); ++i) {
-      const Run& r = runs[i];
-      auto lower = P->block(r.first, c.first, r.size, c.size);
-      lower.noalias() -= W.middleRows(r.at, r.size) * Wc.transpose();
-      P->block(c.first, r.first, c.size, r.size) = lower.transpose();
+  for (int l = 0; l < W.cols(); ++l) {
+    const auto w = W.col(l);
+    for (const Run& c : runs) {
+      for (int j = 0; j < c.size; ++j) {
+        const double wj = w[c.at + j];
+        double* column = P->col(c.first + j).data();
+        for (const Run& r : runs) {
+          Eigen::Map<Eigen::VectorXd>(column + r.first, r.size).noalias() -=
+              w.segment(r.at, r.size) * wj;
+        }
+      }
     }
   }
 }
@@ -212,6 +216,12 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   Eigen::Map<Eigen::VectorXd> next = ScratchVector(&ws.next, s);
   Eigen::Map<Eigen::MatrixXd> U = Scratch(&ws.U, m, m);
   Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws.lambda, m);
+  // Each iteration whitens the fused directions: with A (a x k) such that the update is
+  // δ = P0 Hᵀ A (Aᵀ ... ) — precisely W = P_sa A (s x k) and z = Aᵀ-side innovation (k), the
+  // step is δ = W z and the covariance update P0 - W Wᵀ. For a measurement A = Hᵀ L⁻ᵀ with
+  // S = L Lᵀ (S >= R > 0: no direction can be degenerate); for a constraint A = Hᵀ U Λ^(-1/2)
+  // over the kept eigen-directions of S.
+  const bool linear = f.is_linear();
   int k = 0;
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
@@ -219,85 +229,108 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       summary.status = FusionSummary::Status::kInvalid;
       return summary;
     }
-    S_mat.noalias() = H * P_aa * H.transpose();
-    S_init.noalias() = H * prior_a.asDiagonal() * H.transpose();
-    if (!factor.is_constraint()) {
-      S_mat += factor.noise;
-      S_init += factor.noise;
-    }
+    // Products through scratch storage: a three-factor product would allocate its temporary.
+    Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws.HP, m, a);
+    HP.noalias() = H * P_aa;
+    S_mat.noalias() = HP * H.transpose();
     innovation.noalias() = H * delta_a;
     innovation -= r;
 
-    // The directions of the residual space, with their variances: the rows themselves for a
-    // single row, else the eigenvectors of S.
-    if (m == 1) {
-      U(0, 0) = 1;
-      lambda(0) = S_mat(0, 0);
+    Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
+    Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
+    if (!factor.is_constraint()) {
+      S_mat += factor.noise;
+      ws.llt.compute(S_mat);
+      if (ws.llt.info() != Eigen::Success) {
+        summary.status = FusionSummary::Status::kInvalid;
+        return summary;
+      }
+      k = m;
+      A = H.transpose();
+      ws.llt.matrixL().solveInPlace(A.transpose());
+      z = innovation;
+      ws.llt.matrixL().solveInPlace(z);
+      if (iteration == 0) summary.rows_fused = m;
     } else {
-      ws.eigen.compute(0.5 * (S_mat + S_mat.transpose()));
-      U = ws.eigen.eigenvectors();
-      lambda = ws.eigen.eigenvalues();
-    }
-    ws.keep.clear();
-    double contradiction = 0;
-    for (int i = 0; i < m; ++i) {
-      const double initial = U.col(i).dot(S_init * U.col(i));
-      if (initial <= 0 || lambda(i) <= options.degeneracy_tolerance * initial) {
-        // Already determined: the linearised factor is consistent only if its innovation has
-        // no component along u (the state cannot move along Hᵀu).
-        if (iteration == 0 && initial > 0) {
-          contradiction =
-              std::max(contradiction, std::abs(U.col(i).dot(innovation)) / std::sqrt(initial));
+      // The directions of the residual space, with their variances: the row itself for a
+      // single row, else the eigenvectors of S. A direction whose variance is negligible next
+      // to its variance under the initial prior is already determined.
+      HP.noalias() = H * prior_a.asDiagonal();
+      S_init.noalias() = HP * H.transpose();
+      if (m == 1) {
+        U(0, 0) = 1;
+        lambda(0) = S_mat(0, 0);
+      } else {
+        ws.eigen.compute(0.5 * (S_mat + S_mat.transpose()));
+        U = ws.eigen.eigenvectors();
+        lambda = ws.eigen.eigenvalues();
+      }
+      ws.keep.clear();
+      double contradiction = 0;
+      for (int i = 0; i < m; ++i) {
+        const double initial = U.col(i).dot(S_init * U.col(i));
+        if (initial <= 0 || lambda(i) <= options.degeneracy_tolerance * initial) {
+          // Already determined: the linearised factor is consistent only if its innovation
+          // has no component along u (the state cannot move along Hᵀu).
+          if (iteration == 0 && initial > 0) {
+            contradiction =
+                std::max(contradiction, std::abs(U.col(i).dot(innovation)) / std::sqrt(initial));
+          }
+          continue;
         }
-        continue;
+        ws.keep.push_back(i);
       }
-      ws.keep.push_back(i);
-    }
-    if (iteration == 0) {
-      summary.contradiction = contradiction;
-      if (contradiction > options.contradiction_tolerance) {
-        summary.status = FusionSummary::Status::kContradiction;
-        return summary;
+      if (iteration == 0) {
+        summary.contradiction = contradiction;
+        if (contradiction > options.contradiction_tolerance) {
+          summary.status = FusionSummary::Status::kContradiction;
+          return summary;
+        }
+        if (ws.keep.empty()) {
+          summary.status = FusionSummary::Status::kRedundant;
+          return summary;
+        }
+        summary.rows_fused = static_cast<int>(ws.keep.size());
       }
-      if (ws.keep.empty()) {
-        summary.status = FusionSummary::Status::kRedundant;
-        return summary;
+      // Later iterations keep the directions of the first (a direction's status cannot change
+      // between them without a contradiction, which the first iteration refused).
+      k = static_cast<int>(ws.keep.size());
+      for (int j = 0; j < k; ++j) {
+        const double scale = 1 / std::sqrt(lambda(ws.keep[j]));
+        A.col(j).noalias() = H.transpose() * U.col(ws.keep[j]) * scale;
+        z(j) = U.col(ws.keep[j]).dot(innovation) * scale;
       }
-      summary.rows_fused = static_cast<int>(ws.keep.size());
     }
-    // Later iterations keep the directions of the first (a direction's status cannot change
-    // between them without a contradiction, which the first iteration refused).
-    k = static_cast<int>(ws.keep.size());
-    for (int j = 0; j < k; ++j) {
-      U.col(j) = U.col(ws.keep[j]);
-      lambda(j) = lambda(ws.keep[j]);
+    if (iteration == 0) summary.innovation_nis = z.head(k).squaredNorm();
+    Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
+    if (k == 1) {
+      W.col(0).noalias() = P_sa * A.col(0);
+      next = W.col(0) * z(0);
+    } else {
+      W.noalias() = P_sa * A.leftCols(k);
+      next.noalias() = W * z.head(k);
     }
-    const auto Uk = U.leftCols(k);
-    const auto lambda_k = lambda.topRows(k);
-    Eigen::Map<Eigen::MatrixXd> HtU = Scratch(&ws.HtU, a, k), PSH = Scratch(&ws.PSH, s, k);
-    HtU.noalias() = H.transpose() * Uk;
-    PSH.noalias() = P_sa * HtU;
-    const Eigen::VectorXd projected = (Uk.transpose() * innovation).cwiseQuotient(lambda_k);
-    if (iteration == 0) {
-      summary.innovation_nis = projected.dot(Uk.transpose() * innovation);
-    }
-    next.noalias() = PSH * projected;
     const double step = (next - delta).lpNorm<Eigen::Infinity>();
     delta = next;
     for (int j = 0; j < a; ++j) delta_a(j) = delta(ws.position[j]);
     summary.iterations = iteration + 1;
-    if (step <= options.step_tolerance * (1 + delta.lpNorm<Eigen::Infinity>())) break;
+    // An affine residual is solved exactly by its first update.
+    if (linear || step <= options.step_tolerance * (1 + delta.lpNorm<Eigen::Infinity>())) break;
+    if (factor.is_constraint()) {
+      // A constraint met at the new iterate needs no further step (the next would be of the
+      // size of its residual): checking costs one residual, not a Jacobian.
+      EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), nullptr);
+      if (r.allFinite() && r.lpNorm<Eigen::Infinity>() <= options.residual_tolerance) break;
+    }
     if (iteration + 1 == options.max_iterations && options.max_iterations > 1) {
       summary.status = FusionSummary::Status::kNotConverged;
     }
   }
 
   // The covariance for the final linearisation: P0 - K Hu P0 with the optimal gain, i.e.
-  // P0 - W Wᵀ with W = P0 Huᵀ Λ^(-1/2) (equal to the Joseph form for this gain, at a third of
-  // the cost), on the support only.
-  Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
-  W.noalias() = Scratch(&ws.PSH, s, k) * lambda.topRows(k).cwiseSqrt().cwiseInverse().asDiagonal();
-  SubtractOuterProduct(ws.runs, W, &state->covariance);
+  // P0 - W Wᵀ (equal to the Joseph form for this gain, at a third of the cost), on the
+  // support only.
+  SubtractOuterProduct(ws.runs, Scratch(&ws.W, s, k), &state->covariance);
 
   // Move the mean and the covariance to the chart at x0 ⊞ δ*.
   int offset = 0;

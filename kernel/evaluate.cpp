@@ -67,8 +67,8 @@ void Perturbed(const Block& b, const BlockState<double>& base, const double* shi
   switch (b.kind) {
     case BlockKind::kPoint:
     case BlockKind::kSlack: {
-      // R is unused by point and slack blocks: constants without derivatives.
-      for (int i = 0; i < 9; ++i) out->R(i) = Jet(s.R(i));
+      // R is unused by point and slack blocks (residual.h), so it is not written: copying nine
+      // Jets per block cost more than the residual itself.
       const int dim = TangentDim(b.kind);
       for (int i = 0; i < 3; ++i) out->t[i] = i < dim ? Seeded(s.t[i], n, seed(i)) : Jet(s.t[i]);
       break;

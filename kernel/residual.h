@@ -48,6 +48,9 @@ class ResidualFunction {
   // The kind of block each slot must hold.
   const std::vector<BlockKind>& slot_kinds() const { return slot_kinds_; }
   int arity() const;  // sum of the slots' tangent dimensions
+  // True if the residual is affine in its slots' tangent coordinates (values.h's chart), so
+  // that one Kalman update fuses it exactly and local iterations are unnecessary.
+  virtual bool is_linear() const { return false; }
 
   virtual void Evaluate(std::span<const BlockState<double>> x, double* residual) const = 0;
   virtual void Evaluate(std::span<const BlockState<Jet>> x, Jet* residual) const = 0;

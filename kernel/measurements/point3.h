@@ -27,6 +27,9 @@ class Point3Residual : public AutoDiffResidual<Point3Residual> {
     for (int i = 0; i < 3; ++i) r[i] = p[i] - T(measured_[i]);
   }
 
+  // Of a point block, x + δ - z; of a pose, nonlinear in the rotation.
+  bool is_linear() const override { return !on_pose_; }
+
   std::string Describe(std::span<const std::string> names) const override {
     return fmt::format("3D point of {} at [{:.6g}, {:.6g}, {:.6g}] m", names[0], measured_.x(),
                        measured_.y(), measured_.z());
