@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 
+#include "kernel/fusion_order.h"
 #include "kernel/measurements/image_point.h"
 #include "kernel/measurements/point3.h"
 #include "kernel/measurements/stacked.h"
@@ -237,6 +238,12 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   }
   for (const Constraint& c : graph.constraints)
     factors.push_back({c.residual, c.blocks, {}, c.name});
+  std::vector<Factor> ordered;
+  ordered.reserve(factors.size());
+  for (int i : GroupGrowthOrder(factors, static_cast<int>(graph.blocks.size()))) {
+    ordered.push_back(std::move(factors[i]));
+  }
+  factors = std::move(ordered);
   SequenceOptions sequence = options.sequence;
   sequence.constraint_tolerance = 1e-8 * solution.extent;
   solution.summary = FuseSequence(factors, &solution.state, sequence);

@@ -13,7 +13,8 @@
 //     positions, 1 rad for rotations, 10 for slacks): its weight next to a 2 mm measurement of
 //     a 30 cm model is about 1e-7.
 //  4. The measurements (in file order; a rigid component's together, in one update), then the
-//     constraints (in model order), fused by FuseSequence (kernel/estimator.h) until every
+//     constraints (in the order of kernel/fusion_order.h, which keeps the updates small), fused
+//     by FuseSequence (kernel/estimator.h) until every
 //     constraint holds to 1e-8 x the model's extent. (Gauss-Newton passes reach about 1e-9 x
 //     the extent before roundoff dominates when points are occluded: the vague prior then
 //     leaves the covariance ill-conditioned.)

@@ -63,7 +63,7 @@ GaussianState MakePrior(const std::vector<Block>& blocks, const Values& mean,
 struct FusionOptions {
   int max_iterations = 50;
   double step_tolerance = 1e-10;          // on max |δ_{i+1} - δ_i|, relative to 1 + max |δ|
-  double residual_tolerance = 1e-11;      // a constraint's max |r| at which its iterations stop
+  double residual_tolerance = 1e-9;       // a constraint's max |r| at which its iterations stop
   double degeneracy_tolerance = 1e-12;    // uᵀ S u / uᵀ S_init u below it: already determined
   double contradiction_tolerance = 1e-7;  // |uᵀ r| / sqrt(uᵀ S_init u) above it: contradiction
 };

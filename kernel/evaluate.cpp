@@ -46,10 +46,12 @@ BlockState<double> Shifted(const Block& b, const BlockState<double>& base, const
   return s;
 }
 
-// A Jet of `value` whose derivative vector (of n entries) is `unit` if seeded (0 <= seed < n),
-// else zero.
-Jet Seeded(double value, int n, int seed) {
-  return seed >= 0 ? Jet(value, n, seed) : Jet(value, JetDerivatives::Zero(n));
+// Sets `x` to `value` with a derivative vector of n entries: the unit vector `seed` if
+// 0 <= seed < n, else zero. Written in place: building a Jet and copying it costs a memmove.
+void SetSeeded(double value, int n, int seed, Jet* x) {
+  x->value() = value;
+  x->derivatives().setZero();
+  if (seed >= 0 && seed < n) x->derivatives()[seed] = 1;
 }
 
 // The state (base ⊞ shift) ⊞ ε in Jets, where tangent coordinate i of the block carries the
@@ -70,21 +72,21 @@ void Perturbed(const Block& b, const BlockState<double>& base, const double* shi
       // R is unused by point and slack blocks (residual.h), so it is not written: copying nine
       // Jets per block cost more than the residual itself.
       const int dim = TangentDim(b.kind);
-      for (int i = 0; i < 3; ++i) out->t[i] = i < dim ? Seeded(s.t[i], n, seed(i)) : Jet(s.t[i]);
+      for (int i = 0; i < 3; ++i) SetSeeded(s.t[i], i < dim ? n : 0, i < dim ? seed(i) : -1, &out->t[i]);
       break;
     }
     case BlockKind::kPose: {
       const Eigen::Matrix3d Jr =
           shift ? RightJacobianSO3(Eigen::Map<const Eigen::Vector3d>(shift))
                 : Eigen::Matrix3d::Identity();
-      for (int i = 0; i < 9; ++i) out->R(i) = Jet(s.R(i), JetDerivatives::Zero(n));
+      for (int i = 0; i < 9; ++i) SetSeeded(s.R(i), n, -1, &out->R(i));
       for (int k = 0; k < 3; ++k) {
         const int d = seed(k);
         if (d < 0) continue;
         const Eigen::Matrix3d dR = s.R * Hat<double>(Jr.col(k));
         for (int i = 0; i < 9; ++i) out->R(i).derivatives()[d] = dR(i);
       }
-      for (int i = 0; i < 3; ++i) out->t[i] = Seeded(s.t[i], n, seed(3 + i));
+      for (int i = 0; i < 3; ++i) SetSeeded(s.t[i], n, seed(3 + i), &out->t[i]);
       break;
     }
   }
@@ -149,8 +151,7 @@ void EvaluateResidualAt(const ResidualFunction& f, const std::vector<Block>& gra
     for (int i = 0; i < m; ++i) {
       if (begin == 0) residual[i] = r[i].value();
       const JetDerivatives& d = r[i].derivatives();
-      // A residual that does not depend on the state has an empty derivative vector.
-      if (d.size() == n) J.block(i, begin, 1, n) = d.transpose();
+      J.block(i, begin, 1, n) = d.head(n).transpose();
     }
   }
 }

@@ -13,8 +13,8 @@
 
 namespace cfuse {
 
-inline constexpr int kJetMaxDerivatives = 24;
-using JetDerivatives = Eigen::Matrix<double, Eigen::Dynamic, 1, 0, kJetMaxDerivatives, 1>;
+inline constexpr int kJetMaxDerivatives = 12;
+using JetDerivatives = Eigen::Matrix<double, kJetMaxDerivatives, 1>;
 using Jet = Eigen::AutoDiffScalar<JetDerivatives>;
 
 // The value of a double or a Jet.

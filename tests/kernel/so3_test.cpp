@@ -30,7 +30,7 @@ TEST_CASE("so3: Exp matches Eigen's angle-axis over the whole range", "[kernel]"
 
 TEST_CASE("so3: the autodiff derivative of Exp at zero is the hat operator", "[kernel]") {
   Vector3<Jet> w;
-  for (int i = 0; i < 3; ++i) w[i] = Jet(0.0, 3, i);
+  for (int i = 0; i < 3; ++i) w[i] = Jet(0.0, kJetMaxDerivatives, i);
   const Matrix3<Jet> R = ExpSO3<Jet>(w);
   for (int k = 0; k < 3; ++k) {
     const Eigen::Matrix3d expected = Hat<double>(Eigen::Vector3d::Unit(k));
