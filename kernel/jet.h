@@ -1,11 +1,14 @@
 // The forward-mode automatic-differentiation scalar of cfuse.
 //
-// Jet is Eigen's AutoDiffScalar whose derivative vector has a runtime size with a fixed
-// maximum (kJetMaxDerivatives), so it lives on the stack: a constraint of arity n (the tangent
+// Jet is Eigen's AutoDiffScalar with a fixed derivative vector of kJetMaxDerivatives entries,
+// so it lives on the stack and its arithmetic compiles to straight vector code (a runtime-sized
+// derivative vector cost a library call per copy). A constraint of arity n (the tangent
 // dimension of the blocks it touches: 3 per point, 6 per pose, 1 per slack) is differentiated
-// with derivative vectors of exactly n entries when n <= kJetMaxDerivatives, and in chunks of
-// kJetMaxDerivatives otherwise (as Ceres' DynamicAutoDiffCostFunction does with its stride).
-// One Jet type keeps every residual instantiated twice only (double and Jet).
+// in one evaluation when n <= kJetMaxDerivatives, the unused entries staying zero, and in
+// chunks of kJetMaxDerivatives otherwise (as Ceres' DynamicAutoDiffCostFunction does with its
+// stride). 12 covers most kinds in one evaluation: a distance between points (6), a joint
+// between two poses (12), coplanarity of four points (12). One Jet type keeps every residual
+// instantiated twice only (double and Jet).
 #pragma once
 
 #include <Eigen/Core>
