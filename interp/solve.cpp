@@ -4,6 +4,7 @@
 
 #include <Eigen/Geometry>
 
+#include "interp/closed_form_pose.h"
 #include "kernel/fusion_order.h"
 #include "kernel/measurements/image_point.h"
 #include "kernel/measurements/point3.h"
@@ -11,27 +12,6 @@
 
 namespace cfuse {
 namespace {
-
-// Absolute orientation without scale: to_from_from with to ≈ R from + t, or false when the
-// points do not fix a rotation (fewer than 3, or collinear).
-bool AbsoluteOrientation(const std::vector<Eigen::Vector3d>& from,
-                         const std::vector<Eigen::Vector3d>& to, Rigid3d* result) {
-  const int n = static_cast<int>(from.size());
-  if (n < 3) return false;
-  Eigen::Matrix3Xd a(3, n), b(3, n);
-  for (int i = 0; i < n; ++i) {
-    a.col(i) = from[i];
-    b.col(i) = to[i];
-  }
-  const Eigen::Vector3d centre = a.rowwise().mean();
-  const Eigen::Matrix3Xd centred = a.colwise() - centre;
-  const Eigen::JacobiSVD<Eigen::Matrix3Xd> svd(centred);
-  const Eigen::Vector3d s = svd.singularValues();
-  if (!(s[1] > 1e-6 * std::max(s[0], 1e-12))) return false;  // collinear
-  const Eigen::Matrix4d T = Eigen::umeyama(a, b, false);
-  *result = Rigid3d(Eigen::Matrix3d(T.topLeftCorner<3, 3>()), T.topRightCorner<3, 1>());
-  return true;
-}
 
 // Model points (in some frame) paired with their measurements, 3D and 2D apart.
 struct Correspondences {
@@ -49,16 +29,27 @@ struct Correspondences {
   }
 };
 
-// measured_from_model in closed form: absolute orientation from 3D points, else the PnP solver
-// from image points; false when neither has enough points.
+// measured_from_model in closed form: absolute orientation from 3D points, else from image
+// points (the PnP solver for a pinhole camera; OrthographicPose, with the model points'
+// centroid kept at `depth`, for an orthographic one); false when there are too few points.
 bool ClosedFormPose(const Correspondences& k, const MeasurementSet& set,
-                    const SolveOptions& options, Rigid3d* pose) {
+                    const SolveOptions& options, double depth, Rigid3d* pose) {
   Rigid3d found;  // *pose is written only on success
-  const bool ok = AbsoluteOrientation(k.model3, k.measured3, &found) ||
-                  (set.camera && k.model2.size() >= 4 && options.pose_from_projections &&
-                   options.pose_from_projections(*set.camera, k.model2, k.measured2, &found));
+  bool ok = AbsoluteOrientation(k.model3, k.measured3, &found);
+  if (!ok && set.camera && set.camera->model == Camera::Model::kOrthographic) {
+    ok = OrthographicPose(*set.camera, k.model2, k.measured2, depth, &found);
+  } else if (!ok && set.camera && k.model2.size() >= 4 && options.pose_from_projections) {
+    ok = options.pose_from_projections(*set.camera, k.model2, k.measured2, &found);
+  }
   if (ok) *pose = found;
   return ok;
+}
+
+// The mean depth (z) of points.
+double MeanDepth(const std::vector<Eigen::Vector3d>& points) {
+  double z = 0;
+  for (const Eigen::Vector3d& p : points) z += p.z();
+  return points.empty() ? 0 : z / static_cast<double>(points.size());
 }
 
 Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
@@ -156,7 +147,8 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
         comp.rigid ? comp.points[r.feature].position : Eigen::Vector3d::Zero(), m);
   }
   Rigid3d world_from_nominal;
-  if (!ClosedFormPose(global, set, options, &world_from_nominal) &&
+  // An orthographic camera does not see depth: the model stays at its declared depth.
+  if (!ClosedFormPose(global, set, options, MeanDepth(global.model2), &world_from_nominal) &&
       (global.model3.size() == 1 || global.model3.size() == 2)) {
     // One or two 3D points: a translation at least.
     world_from_nominal =
@@ -179,8 +171,10 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
       }
       continue;
     }
-    Rigid3d pose;
-    if (ClosedFormPose(k, set, options, &pose)) PoseOf(graph, initial, static_cast<int>(c)) = pose;
+    Rigid3d& current = PoseOf(graph, initial, static_cast<int>(c));
+    std::vector<Eigen::Vector3d> in_world;
+    for (const Eigen::Vector3d& p : k.model2) in_world.push_back(current * p);
+    ClosedFormPose(k, set, options, MeanDepth(in_world), &current);
   }
 
   // 3. The prior, and 4. the factors.
