@@ -85,7 +85,7 @@ struct Workspace {
   std::vector<int> support;         // their tangent coordinates
   std::vector<int> position;        // where each of `index` sits in `support`
   std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, next, r, H, S, S_init, innovation;
-  std::vector<double> U, lambda, W, HP, A, z;
+  std::vector<double> U, lambda, W, HP, A, z, Su;
   std::vector<int> keep;
   std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
@@ -136,6 +136,30 @@ void ResetRotationBlock(const std::vector<Run>& runs, int o, const Eigen::Matrix
     P->block(run.first, o, run.size, 3) = rows.transpose();
   }
   P->block<3, 3>(o, o) = 0.5 * (diagonal + diagonal.transpose());
+}
+
+// C = A B for small dynamic matrices, coefficient by coefficient.
+void SmallProduct(const Eigen::Map<Eigen::MatrixXd>& A, const Eigen::Map<Eigen::MatrixXd>& B,
+                  Eigen::Map<Eigen::MatrixXd>* C) {
+  for (int j = 0; j < B.cols(); ++j) {
+    for (int i = 0; i < A.rows(); ++i) {
+      double sum = 0;
+      for (int l = 0; l < A.cols(); ++l) sum += A(i, l) * B(l, j);
+      (*C)(i, j) = sum;
+    }
+  }
+}
+
+// C = A Bᵀ for small dynamic matrices.
+void SmallProductTransposed(const Eigen::Map<Eigen::MatrixXd>& A,
+                            const Eigen::Map<Eigen::MatrixXd>& B, Eigen::Map<Eigen::MatrixXd>* C) {
+  for (int j = 0; j < B.rows(); ++j) {
+    for (int i = 0; i < A.rows(); ++i) {
+      double sum = 0;
+      for (int l = 0; l < A.cols(); ++l) sum += A(i, l) * B(j, l);
+      (*C)(i, j) = sum;
+    }
+  }
 }
 
 // With L the lower triangle of `llt` (S = L Lᵀ): A <- A L⁻ᵀ (A is a x m, i.e. the rows of
@@ -255,14 +279,13 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       summary.status = FusionSummary::Status::kInvalid;
       return summary;
     }
-    // Products through scratch storage: a three-factor product would allocate its temporary.
+    // S = H P0 Hᵀ (+ R) and the innovation H δ - r. These are a few rows by a few columns,
+    // where Eigen's product kernels spend more on dispatch and packing than on arithmetic:
+    // plain loops (as Ceres' small_blas.h does), through scratch storage.
     Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws.HP, m, a);
-    // Coefficient-based products: these are a few rows wide, where Eigen's blocked kernels
-    // spend more on packing than on arithmetic.
-    HP.noalias() = H.lazyProduct(P_aa);
-    S_mat.noalias() = HP.lazyProduct(H.transpose());
-    innovation.noalias() = H * delta_a;
-    innovation -= r;
+    SmallProduct(H, P_aa, &HP);
+    SmallProductTransposed(HP, H, &S_mat);
+    for (int i = 0; i < m; ++i) innovation(i) = H.row(i).dot(delta_a) - r(i);
 
     Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
     Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
@@ -283,19 +306,21 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       // single row, else the eigenvectors of S. A direction whose variance is negligible next
       // to its variance under the initial prior is already determined.
       HP.noalias() = H * prior_a.asDiagonal();
-      S_init.noalias() = HP.lazyProduct(H.transpose());
+      SmallProductTransposed(HP, H, &S_init);
       if (m == 1) {
         U(0, 0) = 1;
         lambda(0) = S_mat(0, 0);
       } else {
-        ws.eigen.compute(0.5 * (S_mat + S_mat.transpose()));
+        ws.eigen.compute(S_mat);  // reads the lower triangle only
         U = ws.eigen.eigenvectors();
         lambda = ws.eigen.eigenvalues();
       }
       ws.keep.clear();
       double contradiction = 0;
+      Eigen::Map<Eigen::VectorXd> Su = ScratchVector(&ws.Su, m);
       for (int i = 0; i < m; ++i) {
-        const double initial = U.col(i).dot(S_init * U.col(i));
+        Su.noalias() = S_init * U.col(i);
+        const double initial = U.col(i).dot(Su);
         if (initial <= 0 || lambda(i) <= options.degeneracy_tolerance * initial) {
           // Already determined: the linearised factor is consistent only if its innovation
           // has no component along u (the state cannot move along Hᵀu).
