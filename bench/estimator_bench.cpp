@@ -95,7 +95,7 @@ void BM_FuseChain(benchmark::State& state) {
         EqualityResidual::Create(d, MakeConstant(nominal, Quantity::Length()), b.Context()), {});
   }
   const ConstraintGraph g = std::move(b).Build();
-  const std::vector<Factor> factors = MeasuredModel(g, 2);
+  const std::vector<Factor> factors = InFusionOrder(g, MeasuredModel(g, 2));
   const GaussianState prior = MakePrior(g.blocks, g.nominal, PriorScale{});
   for (auto _ : state) {
     GaussianState s = prior;
