@@ -266,9 +266,9 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   Eigen::Map<Eigen::VectorXd> next = ScratchVector(&ws.next, s);
   Eigen::Map<Eigen::MatrixXd> U = Scratch(&ws.U, m, m);
   Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws.lambda, m);
-  // Each iteration whitens the fused directions: with A (a x k) such that the update is
-  // δ = P0 Hᵀ A (Aᵀ ... ) — precisely W = P_sa A (s x k) and z = Aᵀ-side innovation (k), the
-  // step is δ = W z and the covariance update P0 - W Wᵀ. For a measurement A = Hᵀ L⁻ᵀ with
+  // Each iteration whitens the directions it fuses: with A (a x k) such that H P0 Hᵀ + R is
+  // the identity in them, W = P0 Hᵀ A (s x k on the support) and z = Aᵀ-side innovation (k),
+  // the step is δ = W z and the covariance update P0 - W Wᵀ. For a measurement A = Hᵀ L⁻ᵀ with
   // S = L Lᵀ (S >= R > 0: no direction can be degenerate); for a constraint A = Hᵀ U Λ^(-1/2)
   // over the kept eigen-directions of S.
   const bool linear = f.is_linear();
