@@ -16,6 +16,7 @@
 #include "cli/summary.h"
 #include "constraints/graphviz.h"
 #include "dsl/measurement_reader.h"
+#include "dsl/pose_reader.h"
 #include "dsl/model_loader.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
@@ -127,9 +128,12 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
                        "no labelled points: solve needs labels (unlabelled points are for "
                        "`cfuse interpret`)");
     }
+    std::optional<PoseSet> guess;
+    if (!options.guess.empty()) guess = dsl::ReadPoses(options.guess);
     const auto start = std::chrono::steady_clock::now();
     SolveOptions solve_options;
     solve_options.pose_from_projections = &vision::PoseFromProjections;
+    solve_options.guess = guess ? &*guess : nullptr;
     const Solution solution = Solve(graph, set, solve_options);
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

@@ -26,6 +26,7 @@ int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err);
 struct SolveCommandOptions {
   std::string model;
   std::string measurements;
+  std::string guess;   // results-format file of starting poses; empty: closed-form starts
   std::string output;  // empty: stdout
 };
 int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err);

@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   solve_cmd->add_option("MODEL", solve.model, "Model file (.yaml)")->required();
   solve_cmd->add_option("--measurements", solve.measurements, "Measurements (.json or .yaml)")
       ->required();
+  solve_cmd->add_option("--guess", solve.guess,
+                        "Starting poses (results format, e.g. a previous result)");
   solve_cmd->add_option("-o,--output", solve.output, "Result file (default: stdout)");
 
   cfuse::cli::SimulateCommandOptions sim;

@@ -5,6 +5,7 @@
 #include <Eigen/Geometry>
 
 #include "interp/closed_form_pose.h"
+#include "kernel/evaluate.h"
 #include "kernel/fusion_order.h"
 #include "kernel/measurements/image_point.h"
 #include "kernel/measurements/point3.h"
@@ -54,6 +55,42 @@ double MeanDepth(const std::vector<Eigen::Vector3d>& points) {
 
 Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
   return v.poses[g.blocks[g.components[component].block].index];
+}
+
+// The guess's poses and points in place of the starts; unknown names are input errors.
+void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* values) {
+  for (const NamedPose& p : guess.components) {
+    const int c = graph.FindComponent(p.name);
+    if (c < 0) throw InputError(p.where, fmt::format("unknown component '{}'", p.name));
+    if (!graph.components[c].rigid) {
+      throw InputError(p.where, fmt::format("'{}' is a single point: give it under 'points'",
+                                            p.name));
+    }
+    PoseOf(graph, *values, c) = p.pose;
+  }
+  for (const NamedPoint& p : guess.points) {
+    const int c = graph.FindComponent(p.name);
+    if (c < 0 || graph.components[c].rigid) {
+      throw InputError(p.where, fmt::format("unknown point '{}'{}", p.name,
+                                            c >= 0 ? ": it is a rigid component" : ""));
+    }
+    values->points[graph.blocks[graph.components[c].block].index] = p.xyz;
+  }
+}
+
+// Every inequality's slack λ from its residual g - λ² at λ = 0: λ = √max(g, 0), keeping its
+// sign, so that a start that moved the components does not begin with violated slack
+// equations.
+void ResetSlacks(const ConstraintGraph& graph, Values* values) {
+  double residual = 0;
+  for (const Constraint& c : graph.constraints) {
+    if (c.slack_block < 0 || c.residual->dimension() != 1) continue;
+    double& slack = values->slacks[graph.blocks[c.slack_block].index];
+    const double sign = slack < 0 ? -1 : 1;
+    slack = 0;
+    EvaluateResidualAt(*c.residual, graph.blocks, c.blocks, *values, nullptr, &residual, nullptr);
+    slack = std::isfinite(residual) ? sign * std::sqrt(std::max(residual, 0.0)) : 0;
+  }
 }
 
 }  // namespace
@@ -176,6 +213,9 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     for (const Eigen::Vector3d& p : k.model2) in_world.push_back(current * p);
     ClosedFormPose(k, set, options, MeanDepth(in_world), &current);
   }
+
+  if (options.guess) ApplyGuess(graph, *options.guess, &initial);
+  ResetSlacks(graph, &initial);
 
   // 3. The prior, and 4. the factors.
   PriorScale scale;

@@ -9,6 +9,8 @@
 //     Eigen::umeyama, from 3D points; a PnP solver from 2D points); then every rigid component
 //     with enough labelled points gets its own closed-form pose and every measured single point
 //     its measured position. None of this depends on how the object happens to be oriented.
+//     A supplied guess (SolveOptions::guess) replaces these starts for the components and
+//     points it names. Each inequality's slack is then set to match the start (λ = √g).
 //  3. A vague prior centred on that guess (standard deviations: 10 x the model's extent for
 //     positions, 1 rad for rotations, 10 for slacks): its weight next to a 2 mm measurement of
 //     a 30 cm model is about 1e-7.
@@ -28,6 +30,7 @@
 #include "constraints/graph.h"
 #include "kernel/estimator.h"
 #include "kernel/measurement_set.h"
+#include "kernel/pose_set.h"
 
 namespace cfuse {
 
@@ -43,6 +46,9 @@ struct SolveOptions {
   double prior_rotation_sigma = 1.0;  // rad
   double prior_slack_sigma = 10.0;
   PoseFromProjections pose_from_projections;
+  // Starting poses and points by name (e.g. a previous result): they replace the closed-form
+  // starts for what they name. An unknown name is an InputError at its entry.
+  const PoseSet* guess = nullptr;
 };
 
 // A labelled measurement resolved to its model point.

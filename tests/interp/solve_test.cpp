@@ -175,6 +175,69 @@ TEST_CASE("solve: the hinged box from an orthographic view alone, poses all over
   CHECK(solved == 30);
 }
 
+TEST_CASE("solve: a supplied guess starts what no closed form can", "[interp]") {
+  // The hinged box seen by a pinhole camera, with no PnP solver wired in: only a guess can
+  // put it in front of the camera.
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  Camera camera;
+  camera.fx = camera.fy = 800;
+  camera.cx = 320;
+  camera.cy = 240;
+  int solved = 0;
+  for (unsigned seed = 1; seed <= 10; ++seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> pixel(0, 0.5), n(0, 1);
+    const Values truth = Moved(g, RandomPose(rng, 1.6));
+    MeasurementSet set;
+    set.camera = camera;
+    for (size_t c = 0; c < g.components.size(); ++c) {
+      for (size_t f = 0; f < g.components[c].points.size(); ++f) {
+        MeasuredPoint m;
+        m.is_3d = false;
+        m.uv = camera.Project<double>(
+                   ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f))) +
+               Eigen::Vector2d(pixel(rng), pixel(rng));
+        m.cov2 = 0.25 * Eigen::Matrix2d::Identity();
+        m.label = g.components[c].name + "." + g.components[c].points[f].name;
+        set.points.push_back(m);
+      }
+    }
+    // The truth moved by about 0.1 rad and 5 cm.
+    PoseSet guess;
+    const Rigid3d error(Eigen::Quaterniond(Eigen::AngleAxisd(
+                            0.1, Eigen::Vector3d(n(rng), n(rng), n(rng)).normalized())),
+                        Eigen::Vector3d(0.03, -0.03, 0.03));
+    for (size_t c = 0; c < g.components.size(); ++c) {
+      guess.components.push_back({g.components[c].name, error * truth.poses[c], {}});
+    }
+    SolveOptions options;
+    options.guess = &guess;
+    const Solution s = Solve(g, set, options);
+    INFO("seed " << seed);
+    CHECK(s.summary.converged);
+    const double rotation_error = s.state.mean.poses[0].rotation.angularDistance(
+        truth.poses[0].rotation);
+    CHECK(rotation_error < 0.02);
+    solved += s.summary.converged && rotation_error < 0.02;
+  }
+  CHECK(solved == 10);
+}
+
+TEST_CASE("solve: a guess naming what the model lacks is an error at its entry", "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  std::mt19937 rng(1);
+  const MeasurementSet set = Measure3d(g, g.nominal, rng, 0.002);
+  SolveOptions options;
+  PoseSet guess;
+  guess.components.push_back({"drawer", Rigid3d(), SourceLocation("g.json", 2, 17)});
+  options.guess = &guess;
+  CHECK_THROWS_WITH(Solve(g, set, options), "g.json:2:17: error: unknown component 'drawer'");
+  guess.components.clear();
+  guess.points.push_back({"box", Eigen::Vector3d::Zero(), SourceLocation("g.json", 3, 5)});
+  CHECK_THROWS_WITH(Solve(g, set, options),
+                    "g.json:3:5: error: unknown point 'box': it is a rigid component");
+}
+
 TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "[interp]") {
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const MeasurementSet set = dsl::ReadMeasurementsFromString(
