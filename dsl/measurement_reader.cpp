@@ -30,7 +30,8 @@ Eigen::MatrixXd Covariance(const Document& doc, const YAML::Node& entry, int n,
     doc.Fail(cov, fmt::format("{} cov must be a {}x{} matrix (a list of {} rows)", what, n, n, n));
   }
   Eigen::MatrixXd C(n, n);
-  for (int i = 0; i < n; ++i) C.row(i) = Numbers(doc, cov[i], n, fmt::format("{} cov row {}", what, i + 1));
+  for (int i = 0; i < n; ++i)
+    C.row(i) = Numbers(doc, cov[i], n, fmt::format("{} cov row {}", what, i + 1));
   if ((C - C.transpose()).cwiseAbs().maxCoeff() > 1e-9 * C.cwiseAbs().maxCoeff()) {
     doc.Fail(cov, fmt::format("{} cov is not symmetric", what));
   }
@@ -42,13 +43,15 @@ Eigen::MatrixXd Covariance(const Document& doc, const YAML::Node& entry, int n,
 }
 
 Camera ReadCamera(const Document& doc, const YAML::Node& node) {
-  const auto entries = doc.Entries(node, "camera",
-                                   {"model", "fx", "fy", "cx", "cy", "scale", "width", "height", "dist"});
+  const auto entries = doc.Entries(
+      node, "camera", {"model", "fx", "fy", "cx", "cy", "scale", "width", "height", "dist"});
   Camera camera;
   std::string model = "pinhole";
-  if (YAML::Node m = Document::Find(entries, "model"); Present(m)) model = doc.Scalar(m, "camera model");
+  if (YAML::Node m = Document::Find(entries, "model"); Present(m))
+    model = doc.Scalar(m, "camera model");
   if (model != "pinhole" && model != "orthographic") {
-    doc.Fail(node["model"], fmt::format("unknown camera model '{}': pinhole or orthographic", model));
+    doc.Fail(node["model"],
+             fmt::format("unknown camera model '{}': pinhole or orthographic", model));
   }
   camera.model = model == "pinhole" ? Camera::Model::kPinhole : Camera::Model::kOrthographic;
   auto get = [&](const char* key, bool required) -> std::optional<double> {
@@ -62,7 +65,8 @@ Camera ReadCamera(const Document& doc, const YAML::Node& node) {
   const bool pinhole = camera.model == Camera::Model::kPinhole;
   for (const char* key : {"fx", "fy", "dist"}) {
     if (!pinhole && Present(Document::Find(entries, key))) {
-      doc.Fail(Document::Find(entries, key), fmt::format("an orthographic camera has no '{}'", key));
+      doc.Fail(Document::Find(entries, key),
+               fmt::format("an orthographic camera has no '{}'", key));
     }
   }
   if (pinhole && Present(Document::Find(entries, "scale"))) {
@@ -81,7 +85,8 @@ Camera ReadCamera(const Document& doc, const YAML::Node& node) {
   for (const char* key : {"width", "height"}) {
     const double v = *get(key, true);
     if (!(v >= 1) || v != std::floor(v) || v > 1e6) {
-      doc.Fail(Document::Find(entries, key), fmt::format("camera {} must be a positive whole number of pixels", key));
+      doc.Fail(Document::Find(entries, key),
+               fmt::format("camera {} must be a positive whole number of pixels", key));
     }
     (std::string(key) == "width" ? camera.width : camera.height) = static_cast<int>(v);
   }
@@ -89,8 +94,9 @@ Camera ReadCamera(const Document& doc, const YAML::Node& node) {
     if (!d.IsSequence()) doc.Fail(d, "camera dist must be a list of distortion coefficients");
     const int n = static_cast<int>(d.size());
     if (n == 14) {
-      doc.Fail(d, "the tilted-sensor coefficients (14 values) are not supported; give 0, 4, 5, 8 "
-                  "or 12 coefficients");
+      doc.Fail(d,
+               "the tilted-sensor coefficients (14 values) are not supported; give 0, 4, 5, 8 "
+               "or 12 coefficients");
     }
     if (n != 0 && n != 4 && n != 5 && n != 8 && n != 12) {
       doc.Fail(d, fmt::format("camera dist has {} coefficients; OpenCV's model takes 4, 5, 8 or 12 "
@@ -134,7 +140,8 @@ MeasurementSet Read(const std::string& display, const std::string& text) {
       p.xyz = Numbers(doc, xyz, 3, what + " xyz");
       p.cov3 = Covariance(doc, entry, 3, what);
     } else {
-      if (!set.camera) doc.Fail(entry, fmt::format("{} is an image point but the file has no 'camera'", what));
+      if (!set.camera)
+        doc.Fail(entry, fmt::format("{} is an image point but the file has no 'camera'", what));
       p.uv = Numbers(doc, uv, 2, what + " uv");
       p.cov2 = Covariance(doc, entry, 2, what);
     }
@@ -162,7 +169,8 @@ Camera ReadCameraFile(const std::string& path) {
   CheckText(path, text, kCameraFile);
   const Document doc(path, text, kCameraFile);
   const YAML::Node root = doc.Parse();
-  if (!root.IsMap()) doc.Fail(root, "a camera file is a mapping with fx, fy, cx, cy, width, height");
+  if (!root.IsMap())
+    doc.Fail(root, "a camera file is a mapping with fx, fy, cx, cy, width, height");
   if (Present(root["camera"])) return ReadCamera(doc, root["camera"]);
   return ReadCamera(doc, root);
 }

@@ -24,7 +24,8 @@ double Number(const Document& doc, const YAML::Node& node, const std::string& wh
   return v;
 }
 
-Eigen::VectorXd Numbers(const Document& doc, const YAML::Node& node, int n, const std::string& what) {
+Eigen::VectorXd Numbers(const Document& doc, const YAML::Node& node, int n,
+                        const std::string& what) {
   if (!node.IsSequence() || static_cast<int>(node.size()) != n) {
     doc.Fail(node, fmt::format("{} must be a list of {} numbers{}", what, n,
                                node.IsSequence() ? fmt::format(", got {}", node.size()) : ""));

@@ -1,7 +1,7 @@
 #include "interp/closed_form_pose.h"
 
-#include <Eigen/Geometry>
 #include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
 #include <Eigen/SVD>
 
 namespace cfuse {
@@ -22,7 +22,8 @@ bool AbsoluteOrientation(const std::vector<Eigen::Vector3d>& from,
   const int n = static_cast<int>(from.size());
   if (n < 3 || to.size() != from.size()) return false;
   Eigen::Vector3d centre;
-  const Eigen::Vector3d s = Eigen::JacobiSVD<Eigen::Matrix3Xd>(Centred(from, &centre)).singularValues();
+  const Eigen::Vector3d s =
+      Eigen::JacobiSVD<Eigen::Matrix3Xd>(Centred(from, &centre)).singularValues();
   if (!(s[1] > 1e-6 * std::max(s[0], 1e-12))) return false;  // collinear
   Eigen::Matrix3Xd a(3, n), b(3, n);
   for (int i = 0; i < n; ++i) {
@@ -63,8 +64,8 @@ bool OrthographicPose(const Camera& camera, const std::vector<Eigen::Vector3d>& 
   if (!planar) {
     // The affine camera M (2 x 3) with p ≈ M X, then its nearest pair of orthonormal rows.
     const Eigen::Matrix<double, 2, 3> M = p * X.transpose() * (X * X.transpose()).inverse();
-    const Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>> svd(M, Eigen::ComputeFullU |
-                                                                   Eigen::ComputeFullV);
+    const Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>> svd(
+        M, Eigen::ComputeFullU | Eigen::ComputeFullV);
     const Eigen::Matrix<double, 2, 3> rows =
         svd.matrixU() * svd.matrixV().leftCols<2>().transpose();
     R.row(0) = rows.row(0);
@@ -85,7 +86,8 @@ bool OrthographicPose(const Camera& camera, const std::vector<Eigen::Vector3d>& 
     // its rank-one factor, i.e. G = I - BᵀB = z zᵀ.
     const Eigen::Matrix2d G = Eigen::Matrix2d::Identity() - B.transpose() * B;
     const Eigen::SelfAdjointEigenSolver<Eigen::Matrix2d> eig(G);
-    const Eigen::Vector2d z = std::sqrt(std::max(0.0, eig.eigenvalues()[1])) * eig.eigenvectors().col(1);
+    const Eigen::Vector2d z =
+        std::sqrt(std::max(0.0, eig.eigenvalues()[1])) * eig.eigenvectors().col(1);
     Eigen::Matrix<double, 3, 2> C;
     C.topRows<2>() = B;
     C.row(2) = z.transpose();

@@ -63,8 +63,8 @@ void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* valu
     const int c = graph.FindComponent(p.name);
     if (c < 0) throw InputError(p.where, fmt::format("unknown component '{}'", p.name));
     if (!graph.components[c].rigid) {
-      throw InputError(p.where, fmt::format("'{}' is a single point: give it under 'points'",
-                                            p.name));
+      throw InputError(p.where,
+                       fmt::format("'{}' is a single point: give it under 'points'", p.name));
     }
     PoseOf(graph, *values, c) = p.pose;
   }

@@ -92,7 +92,6 @@ struct Workspace {
   Eigen::LLT<Eigen::MatrixXd> llt;
 };
 
-
 // P(S, S) -= W Wᵀ over the support S, one column of W at a time. Each rank-one step updates
 // both P(i, j) and P(j, i) with the same product w_i w_j (multiplication commutes exactly in
 // floating point), so P stays exactly symmetric without a triangular update and a mirror copy,
@@ -392,8 +391,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     if (block.kind == BlockKind::kPose) {
       const Eigen::Vector3d w = delta.segment<3>(offset);
       if (!w.isZero()) {
-        ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w),
-                           &state->covariance);
+        ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w), &state->covariance);
       }
     }
     offset += TangentDim(block.kind);

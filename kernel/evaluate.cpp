@@ -72,13 +72,13 @@ void Perturbed(const Block& b, const BlockState<double>& base, const double* shi
       // R is unused by point and slack blocks (residual.h), so it is not written: copying nine
       // Jets per block cost more than the residual itself.
       const int dim = TangentDim(b.kind);
-      for (int i = 0; i < 3; ++i) SetSeeded(s.t[i], i < dim ? n : 0, i < dim ? seed(i) : -1, &out->t[i]);
+      for (int i = 0; i < 3; ++i)
+        SetSeeded(s.t[i], i < dim ? n : 0, i < dim ? seed(i) : -1, &out->t[i]);
       break;
     }
     case BlockKind::kPose: {
-      const Eigen::Matrix3d Jr =
-          shift ? RightJacobianSO3(Eigen::Map<const Eigen::Vector3d>(shift))
-                : Eigen::Matrix3d::Identity();
+      const Eigen::Matrix3d Jr = shift ? RightJacobianSO3(Eigen::Map<const Eigen::Vector3d>(shift))
+                                       : Eigen::Matrix3d::Identity();
       for (int i = 0; i < 9; ++i) SetSeeded(s.R(i), n, -1, &out->R(i));
       for (int k = 0; k < 3; ++k) {
         const int d = seed(k);

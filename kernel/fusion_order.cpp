@@ -25,7 +25,8 @@ std::vector<int> GroupGrowthOrder(const std::vector<Factor>& factors, int num_bl
     return static_cast<long>(support.size());
   };
   for (size_t i = 0; i < factors.size(); ++i) {
-    if (factors[i].is_constraint()) queue.push({merged_size(static_cast<int>(i)), static_cast<int>(i)});
+    if (factors[i].is_constraint())
+      queue.push({merged_size(static_cast<int>(i)), static_cast<int>(i)});
   }
   while (!queue.empty()) {
     const auto [key, i] = queue.top();

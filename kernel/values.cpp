@@ -24,8 +24,7 @@ void RetractBlock(const Block& b, const double* delta, Values* values) {
   }
 }
 
-void LocalCoordinatesOfBlock(const Block& b, const Values& from, const Values& to,
-                             double* delta) {
+void LocalCoordinatesOfBlock(const Block& b, const Values& from, const Values& to, double* delta) {
   switch (b.kind) {
     case BlockKind::kPoint:
       Eigen::Map<Eigen::Vector3d>{delta} = to.points.at(b.index) - from.points.at(b.index);
@@ -56,7 +55,8 @@ Eigen::VectorXd LocalCoordinates(const std::vector<Block>& blocks, const Values&
   int n = 0;
   for (const Block& b : blocks) n = std::max(n, b.tangent_offset + TangentDim(b.kind));
   Eigen::VectorXd delta = Eigen::VectorXd::Zero(n);
-  for (const Block& b : blocks) LocalCoordinatesOfBlock(b, from, to, delta.data() + b.tangent_offset);
+  for (const Block& b : blocks)
+    LocalCoordinatesOfBlock(b, from, to, delta.data() + b.tangent_offset);
   return delta;
 }
 

@@ -1,8 +1,11 @@
 // Helpers shared by the tests.
 #pragma once
 
+#include <catch2/catch.hpp>
 #include <cstdlib>
 #include <string>
+
+#include "kernel/error.h"
 
 namespace cfuse::testing {
 
@@ -13,5 +16,29 @@ inline std::string SourceDir() {
 }
 
 inline std::string SourcePath(const std::string& relative) { return SourceDir() + "/" + relative; }
+
+// A malformed input and where and how it must be refused.
+struct BadCase {
+  const char* text;
+  int line, column;
+  const char* message;  // the start of the message
+};
+
+// Each case's text, read by `read(text, "bad.json")`, must throw an InputError at its place.
+template <typename Reader>
+void ExpectRefused(const BadCase* begin, const BadCase* end, Reader read) {
+  for (const BadCase* c = begin; c != end; ++c) {
+    INFO(c->text);
+    try {
+      read(c->text, "bad.json");
+      FAIL("accepted");
+    } catch (const InputError& e) {
+      CHECK(e.where().file == "bad.json");
+      CHECK(e.where().line == c->line);
+      CHECK(e.where().column == c->column);
+      CHECK_THAT(e.message(), Catch::Matchers::StartsWith(c->message));
+    }
+  }
+}
 
 }  // namespace cfuse::testing

@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "test_util.h"
+
 namespace cfuse::dsl {
 namespace {
 
@@ -45,14 +47,8 @@ points:
   CHECK(yaml.points[1].where.element == "points[1]");
 }
 
-struct BadCase {
-  const char* text;
-  int line, column;
-  const char* message;
-};
-
 TEST_CASE("measurements: every malformed file is refused where and how it should be", "[dsl]") {
-  const BadCase cases[] = {
+  const testing::BadCase cases[] = {
       {"{}", 1, 1, "the measurements need 'points'"},
       {"points: [{xyz: [1, 2], sigma: 0.1}]", 1, 16,
        "points[0] xyz must be a list of 3 numbers, got 2"},
@@ -95,18 +91,9 @@ TEST_CASE("measurements: every malformed file is refused where and how it should
       {"points: [{xyz: [1, 2, 3], sigma: 1}]\nextra: 1", 2, 1,
        "unknown key 'extra' in the measurements"},
   };
-  for (const BadCase& c : cases) {
-    INFO(c.text);
-    try {
-      ReadMeasurementsFromString(c.text, "bad.json");
-      FAIL("accepted");
-    } catch (const InputError& e) {
-      CHECK(e.where().file == "bad.json");
-      CHECK(e.where().line == c.line);
-      CHECK(e.where().column == c.column);
-      CHECK_THAT(e.message(), Catch::Matchers::StartsWith(c.message));
-    }
-  }
+  testing::ExpectRefused(
+      std::begin(cases), std::end(cases),
+      [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
 }
 
 TEST_CASE("measurements: missing, empty and binary files", "[dsl]") {

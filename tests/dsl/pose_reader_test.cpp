@@ -4,6 +4,8 @@
 
 #include <catch2/catch.hpp>
 
+#include "test_util.h"
+
 namespace cfuse::dsl {
 namespace {
 
@@ -33,14 +35,8 @@ TEST_CASE("poses: a results file and a truth file read back", "[dsl]") {
   CHECK(truth.points[1].where.line == 1);
 }
 
-struct BadCase {
-  const char* text;
-  int line, column;
-  const char* message;
-};
-
 TEST_CASE("poses: every malformed file is refused where and how it should be", "[dsl]") {
-  const BadCase cases[] = {
+  const testing::BadCase cases[] = {
       {"{}", 1, 1, "a pose file needs 'components' (or 'points')"},
       {"- 1", 1, 1, "a pose file is a mapping"},
       {"components: [1]", 1, 13, "components must be a mapping"},
@@ -63,18 +59,9 @@ TEST_CASE("poses: every malformed file is refused where and how it should be", "
       {"points: {p1: {xyz: [1, 2, x]}}", 1, 27, "points.p1 xyz must be a number, got 'x'"},
       {"points: {p1: {cov: [[1]]}}", 1, 14, "points.p1 needs 'xyz'"},
   };
-  for (const BadCase& c : cases) {
-    INFO(c.text);
-    try {
-      ReadPosesFromString(c.text, "bad.json");
-      FAIL("accepted");
-    } catch (const InputError& e) {
-      CHECK(e.where().file == "bad.json");
-      CHECK(e.where().line == c.line);
-      CHECK(e.where().column == c.column);
-      CHECK_THAT(e.message(), Catch::Matchers::StartsWith(c.message));
-    }
-  }
+  testing::ExpectRefused(
+      std::begin(cases), std::end(cases),
+      [](const char* text, const char* file) { return ReadPosesFromString(text, file); });
   CHECK_THROWS_WITH(ReadPoses("no/such/poses.json"),
                     "no/such/poses.json: error: cannot open: no such file");
 }

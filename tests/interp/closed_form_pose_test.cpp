@@ -71,8 +71,7 @@ TEST_CASE("closed form: orthographic pose of a solid recovers rotation and image
   }
 }
 
-TEST_CASE("closed form: orthographic pose of a plane is one of its two mirror images",
-          "[interp]") {
+TEST_CASE("closed form: orthographic pose of a plane is one of its two mirror images", "[interp]") {
   std::mt19937 rng(7);
   const Camera camera = Orthographic();
   const std::vector<Eigen::Vector3d> square = {
@@ -106,10 +105,10 @@ TEST_CASE("closed form: orthographic pose refuses what it cannot solve", "[inter
   Camera pinhole;  // the default model
   CHECK_FALSE(OrthographicPose(pinhole, box, image, 1.0, &untouched));
   const std::vector<Eigen::Vector3d> line = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}, {3, 0, 0}};
-  CHECK_FALSE(OrthographicPose(Orthographic(), line, {image.begin(), image.begin() + 4}, 1.0,
-                               &untouched));
-  CHECK_FALSE(OrthographicPose(Orthographic(), {box[0], box[1]}, {image[0], image[1]}, 1.0,
-                               &untouched));
+  CHECK_FALSE(
+      OrthographicPose(Orthographic(), line, {image.begin(), image.begin() + 4}, 1.0, &untouched));
+  CHECK_FALSE(
+      OrthographicPose(Orthographic(), {box[0], box[1]}, {image[0], image[1]}, 1.0, &untouched));
   CHECK_FALSE(OrthographicPose(Orthographic(), box, {image[0]}, 1.0, &untouched));
 }
 

@@ -45,6 +45,26 @@ MeasurementSet Measure3d(const ConstraintGraph& g, const Values& truth, std::mt1
   return set;
 }
 
+// Every feature point of the rigid components at `truth`, seen by `camera` with pixel noise.
+MeasurementSet MeasureImage(const ConstraintGraph& g, const Values& truth, const Camera& camera,
+                            std::normal_distribution<double>& pixel, std::mt19937& rng) {
+  MeasurementSet set;
+  set.camera = camera;
+  for (size_t c = 0; c < g.components.size(); ++c) {
+    for (size_t f = 0; f < g.components[c].points.size(); ++f) {
+      MeasuredPoint m;
+      m.is_3d = false;
+      m.uv =
+          camera.Project<double>(ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f))) +
+          Eigen::Vector2d(pixel(rng), pixel(rng));
+      m.cov2 = pixel.stddev() * pixel.stddev() * Eigen::Matrix2d::Identity();
+      m.label = g.components[c].name + "." + g.components[c].points[f].name;
+      set.points.push_back(m);
+    }
+  }
+  return set;
+}
+
 Values Moved(const ConstraintGraph& g, const Rigid3d& pose) {
   Values v = g.nominal;
   for (Rigid3d& p : v.poses) p = pose * p;
@@ -103,20 +123,7 @@ TEST_CASE("solve: the hinged box from image points alone (§7), poses all over S
     std::mt19937 rng(seed);
     std::normal_distribution<double> pixel(0, 0.5);
     const Values truth = Moved(g, RandomPose(rng, 1.6));
-    MeasurementSet set;
-    set.camera = camera;
-    for (size_t c = 0; c < g.components.size(); ++c) {
-      for (size_t f = 0; f < g.components[c].points.size(); ++f) {
-        MeasuredPoint m;
-        m.is_3d = false;
-        m.uv =
-            camera.Project<double>(ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f))) +
-            Eigen::Vector2d(pixel(rng), pixel(rng));
-        m.cov2 = 0.25 * Eigen::Matrix2d::Identity();
-        m.label = g.components[c].name + "." + g.components[c].points[f].name;
-        set.points.push_back(m);
-      }
-    }
+    const MeasurementSet set = MeasureImage(g, truth, camera, pixel, rng);
     const Solution s = Solve(g, set, options);
     INFO("seed " << seed);
     CHECK(s.summary.converged);
@@ -144,20 +151,7 @@ TEST_CASE("solve: the hinged box from an orthographic view alone, poses all over
     std::mt19937 rng(seed);
     std::normal_distribution<double> pixel(0, 0.5);
     const Values truth = Moved(g, RandomPose(rng, 1.6));
-    MeasurementSet set;
-    set.camera = camera;
-    for (size_t c = 0; c < g.components.size(); ++c) {
-      for (size_t f = 0; f < g.components[c].points.size(); ++f) {
-        MeasuredPoint m;
-        m.is_3d = false;
-        m.uv =
-            camera.Project<double>(ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f))) +
-            Eigen::Vector2d(pixel(rng), pixel(rng));
-        m.cov2 = 0.25 * Eigen::Matrix2d::Identity();
-        m.label = g.components[c].name + "." + g.components[c].points[f].name;
-        set.points.push_back(m);
-      }
-    }
+    const MeasurementSet set = MeasureImage(g, truth, camera, pixel, rng);
     const Solution s = Solve(g, set);  // no PnP solver: the orthographic start is built in
     INFO("seed " << seed);
     CHECK(s.summary.converged);
@@ -188,20 +182,7 @@ TEST_CASE("solve: a supplied guess starts what no closed form can", "[interp]") 
     std::mt19937 rng(seed);
     std::normal_distribution<double> pixel(0, 0.5), n(0, 1);
     const Values truth = Moved(g, RandomPose(rng, 1.6));
-    MeasurementSet set;
-    set.camera = camera;
-    for (size_t c = 0; c < g.components.size(); ++c) {
-      for (size_t f = 0; f < g.components[c].points.size(); ++f) {
-        MeasuredPoint m;
-        m.is_3d = false;
-        m.uv = camera.Project<double>(
-                   ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f))) +
-               Eigen::Vector2d(pixel(rng), pixel(rng));
-        m.cov2 = 0.25 * Eigen::Matrix2d::Identity();
-        m.label = g.components[c].name + "." + g.components[c].points[f].name;
-        set.points.push_back(m);
-      }
-    }
+    const MeasurementSet set = MeasureImage(g, truth, camera, pixel, rng);
     // The truth moved by about 0.1 rad and 5 cm.
     PoseSet guess;
     const Rigid3d error(Eigen::Quaterniond(Eigen::AngleAxisd(
@@ -215,8 +196,8 @@ TEST_CASE("solve: a supplied guess starts what no closed form can", "[interp]") 
     const Solution s = Solve(g, set, options);
     INFO("seed " << seed);
     CHECK(s.summary.converged);
-    const double rotation_error = s.state.mean.poses[0].rotation.angularDistance(
-        truth.poses[0].rotation);
+    const double rotation_error =
+        s.state.mean.poses[0].rotation.angularDistance(truth.poses[0].rotation);
     CHECK(rotation_error < 0.02);
     solved += s.summary.converged && rotation_error < 0.02;
   }
