@@ -18,6 +18,7 @@
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
 #include "dsl/pose_reader.h"
+#include "interp/schedule.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
 #include "kernel/check.h"
@@ -114,6 +115,14 @@ int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err) 
     } else {
       WriteFileAtomically(options.output, dot.str());
     }
+    return 0;
+  });
+}
+
+int RunPlan(const PlanCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    out << FormatPlan(graph, PlanFusion(graph, options.image));
     return 0;
   });
 }

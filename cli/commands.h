@@ -23,6 +23,12 @@ struct GraphOptions {
 };
 int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err);
 
+struct PlanCommandOptions {
+  std::string model;
+  bool image = false;  // plan for 2D measurements (seed sets of 4 points)
+};
+int RunPlan(const PlanCommandOptions& options, std::ostream& out, std::ostream& err);
+
 struct SolveCommandOptions {
   std::string model;
   std::string measurements;

@@ -20,6 +20,12 @@ int main(int argc, char** argv) {
   graph_cmd->add_option("MODEL", graph.model, "Model file (.yaml)")->required();
   graph_cmd->add_option("-o,--output", graph.output, "Output file (default: stdout)");
 
+  cfuse::cli::PlanCommandOptions plan;
+  CLI::App* plan_cmd = app.add_subcommand(
+      "plan", "Print the fusion order (Hel-Or & Werman §6-7): constraints fused, points matched");
+  plan_cmd->add_option("MODEL", plan.model, "Model file (.yaml)")->required();
+  plan_cmd->add_flag("--image", plan.image, "Plan for image (2D) measurements: seeds of 4 points");
+
   cfuse::cli::SolveCommandOptions solve;
   CLI::App* solve_cmd = app.add_subcommand("solve", "Estimate poses from labelled measurements");
   solve_cmd->add_option("MODEL", solve.model, "Model file (.yaml)")->required();
@@ -58,6 +64,7 @@ int main(int argc, char** argv) {
   }
   if (*check_cmd) return cfuse::cli::RunCheck(check, std::cout, std::cerr);
   if (*graph_cmd) return cfuse::cli::RunGraph(graph, std::cout, std::cerr);
+  if (*plan_cmd) return cfuse::cli::RunPlan(plan, std::cout, std::cerr);
   if (*solve_cmd) return cfuse::cli::RunSolve(solve, std::cout, std::cerr);
   if (*sim_cmd) return cfuse::cli::RunSimulate(sim, std::cout, std::cerr);
   if (*demo_cmd) return cfuse::cli::RunDemo(std::cout, std::cerr);

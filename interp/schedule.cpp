@@ -1,0 +1,300 @@
+#include "interp/schedule.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <numeric>
+#include <set>
+
+namespace cfuse {
+namespace {
+
+// The rigid component with the most feature points (at least 3), or -1.
+int LargestRigidComponent(const ConstraintGraph& g) {
+  int best = -1;
+  for (size_t c = 0; c < g.components.size(); ++c) {
+    const Component& comp = g.components[c];
+    if (!comp.rigid || comp.points.size() < 3) continue;
+    if (best < 0 || comp.points.size() > g.components[best].points.size()) {
+      best = static_cast<int>(c);
+    }
+  }
+  return best;
+}
+
+// The best-shaped triangle of single points held rigid by pairwise `distance == nominal` or a
+// common `rigid(...)`: largest smallest side, then model order. Empty if none.
+std::vector<int> RigidTriangle(const ConstraintGraph& g,
+                               const std::vector<std::vector<int>>& components_of) {
+  const int n = static_cast<int>(g.components.size());
+  std::vector<std::set<int>> rigid_with(n);
+  for (size_t k = 0; k < g.constraints.size(); ++k) {
+    const Constraint& c = g.constraints[k];
+    const std::vector<int>& comps = components_of[k];
+    const bool distance = c.kind == "distance ==" && comps.size() == 2;
+    if (!distance && c.kind != "rigid") continue;
+    for (int a : comps) {
+      for (int b : comps) {
+        if (a != b && !g.components[a].rigid && !g.components[b].rigid) rigid_with[a].insert(b);
+      }
+    }
+  }
+  auto side = [&](int a, int b) {
+    return (g.nominal.points[g.blocks[g.components[a].block].index] -
+            g.nominal.points[g.blocks[g.components[b].block].index])
+        .norm();
+  };
+  std::vector<int> best;
+  double best_side = -1;
+  for (int a = 0; a < n; ++a) {
+    for (int b : rigid_with[a]) {
+      if (b <= a) continue;
+      for (int c : rigid_with[b]) {
+        if (c <= b || !rigid_with[a].count(c)) continue;
+        const double smallest = std::min({side(a, b), side(b, c), side(a, c)});
+        if (smallest > best_side) {
+          best_side = smallest;
+          best = {a, b, c};
+        }
+      }
+    }
+  }
+  return best;
+}
+
+// A rigid component's features with its seed set first: the 3 spanning the largest triangle,
+// then (for image data) the one farthest from their plane; the rest in model order.
+std::vector<int> SeedFirstFeatures(const Component& comp, bool image_data, int* seed_size) {
+  const int n = static_cast<int>(comp.points.size());
+  std::vector<int> order(n);
+  std::iota(order.begin(), order.end(), 0);
+  *seed_size = 0;
+  if (n < 3) return order;
+  auto p = [&](int i) { return comp.points[i].position; };
+  int bi = 0, bj = 1, bk = 2;
+  double best = -1;
+  for (int i = 0; i < n; ++i) {
+    for (int j = i + 1; j < n; ++j) {
+      for (int k = j + 1; k < n; ++k) {
+        const double area = (p(j) - p(i)).cross(p(k) - p(i)).norm();
+        if (area > best * (1 + 1e-12)) {
+          best = area;
+          bi = i, bj = j, bk = k;
+        }
+      }
+    }
+  }
+  std::vector<int> seed = {bi, bj, bk};
+  if (image_data && n >= 4) {
+    const Eigen::Vector3d normal = (p(bj) - p(bi)).cross(p(bk) - p(bi)).normalized();
+    int fourth = -1;
+    double far = -1;
+    for (int l = 0; l < n; ++l) {
+      if (l == bi || l == bj || l == bk) continue;
+      const double d = std::abs(normal.dot(p(l) - p(bi)));
+      if (d > far * (1 + 1e-12)) {
+        far = d;
+        fourth = l;
+      }
+    }
+    seed.push_back(fourth);
+  }
+  *seed_size = static_cast<int>(seed.size());
+  std::vector<int> out = seed;
+  for (int i : order) {
+    if (std::find(seed.begin(), seed.end(), i) == seed.end()) out.push_back(i);
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<int> ConstraintComponents(const ConstraintGraph& graph, const Constraint& c) {
+  std::vector<int> out;
+  for (int b : c.blocks) {
+    for (size_t k = 0; k < graph.components.size(); ++k) {
+      if (graph.components[k].block == b &&
+          std::find(out.begin(), out.end(), static_cast<int>(k)) == out.end()) {
+        out.push_back(static_cast<int>(k));
+      }
+    }
+  }
+  return out;
+}
+
+std::string ModelPointName(const ConstraintGraph& graph, int component, int feature) {
+  const Component& c = graph.components[component];
+  return feature < 0 ? c.name : c.name + "." + c.points[feature].name;
+}
+
+FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data) {
+  const int num_components = static_cast<int>(g.components.size());
+  const int num_constraints = static_cast<int>(g.constraints.size());
+  std::vector<int> component_of_block(g.blocks.size(), -1);
+  for (int c = 0; c < num_components; ++c) component_of_block[g.components[c].block] = c;
+  std::vector<std::vector<int>> components_of(num_constraints);
+  for (int k = 0; k < num_constraints; ++k) {
+    for (int b : g.constraints[k].blocks) {
+      const int c = component_of_block[b];
+      std::vector<int>& v = components_of[k];
+      if (c >= 0 && std::find(v.begin(), v.end(), c) == v.end()) v.push_back(c);
+    }
+  }
+
+  // The start: a rigid component's seed features, or a rigid triangle of points.
+  std::vector<int> start;
+  const int rigid_start = LargestRigidComponent(g);
+  if (rigid_start >= 0) {
+    start = {rigid_start};
+  } else {
+    start = RigidTriangle(g, components_of);
+  }
+  auto in_start = [&](int c) { return std::find(start.begin(), start.end(), c) != start.end(); };
+
+  FusionPlan plan;
+  std::vector<bool> matched(num_components, false), fused(num_constraints, false);
+  std::vector<int> pending;
+  std::vector<int> components_of_fused;  // components touched by fused constraints
+  auto fuse = [&](int k) {
+    fused[k] = true;
+    pending.push_back(k);
+    for (int c : components_of[k]) components_of_fused.push_back(c);
+  };
+  auto match = [&](int c) {
+    matched[c] = true;
+    const Component& comp = g.components[c];
+    int seed_size = 0;
+    const std::vector<int> features =
+        comp.rigid ? SeedFirstFeatures(comp, image_data, &seed_size) : std::vector<int>{-1};
+    if (plan.levels.empty()) {
+      plan.seed_levels = comp.rigid ? seed_size : 0;
+      plan.seed_is_rigid_component = comp.rigid && seed_size > 0;
+    }
+    for (int f : features) {
+      PlanLevel level;
+      level.constraints = std::move(pending);
+      pending.clear();
+      level.component = c;
+      level.feature = f;
+      plan.levels.push_back(std::move(level));
+    }
+  };
+  auto remaining = [&](const std::vector<bool>& done) {
+    return std::count(done.begin(), done.end(), false) > 0;
+  };
+
+  // (a) Constraints on matched components only.
+  auto fuse_ready = [&] {
+    for (int k = 0; k < num_constraints; ++k) {
+      if (fused[k]) continue;
+      const std::vector<int>& comps = components_of[k];
+      if (std::all_of(comps.begin(), comps.end(), [&](int c) { return matched[c]; })) fuse(k);
+    }
+  };
+  while (remaining(fused) && remaining(matched)) {
+    fuse_ready();
+    // (b) Components a fused constraint touches, in model order; before each, (a) again, so
+    // that a constraint is fused as soon as its components are matched.
+    for (int c = 0; c < num_components; ++c) {
+      if (!matched[c] && std::find(components_of_fused.begin(), components_of_fused.end(), c) !=
+                             components_of_fused.end()) {
+        fuse_ready();
+        match(c);
+      }
+    }
+    if (!remaining(fused) || !remaining(matched)) break;
+    // (c) One constraint touching a matched component: unmatched components in the start
+    // first, then the fewest unmatched, then the most matched, then model order.
+    int pick = -1;
+    std::tuple<int, int, int> best_key;
+    for (int k = 0; k < num_constraints; ++k) {
+      if (fused[k]) continue;
+      int m = 0, u = 0, u_outside_start = 0;
+      for (int c : components_of[k]) {
+        if (matched[c]) {
+          ++m;
+        } else {
+          ++u;
+          u_outside_start += in_start(c) ? 0 : 1;
+        }
+      }
+      if (m == 0) continue;
+      const std::tuple<int, int, int> key{u_outside_start, u, -m};
+      if (pick < 0 || key < best_key) {
+        pick = k;
+        best_key = key;
+      }
+    }
+    // (d) Else: at the start, a constraint on the start set (touching the rigid start
+    // component, or within the triangle); later, the first one left in model order.
+    if (pick < 0) {
+      const bool at_start = std::none_of(matched.begin(), matched.end(), [](bool b) { return b; });
+      for (int k = 0; k < num_constraints && pick < 0; ++k) {
+        if (fused[k]) continue;
+        const std::vector<int>& comps = components_of[k];
+        const bool on_start =
+            rigid_start >= 0 ? std::any_of(comps.begin(), comps.end(), in_start)
+                             : comps.size() >= 2 && std::all_of(comps.begin(), comps.end(), in_start);
+        if (!at_start || start.empty() || on_start) pick = k;
+      }
+      if (pick < 0) {
+        // No constraint on the start set: match it first, then go on.
+        for (int c : start) {
+          if (!matched[c]) match(c);
+        }
+        continue;
+      }
+    }
+    fuse(pick);
+  }
+  // Components no constraint touches (the start one first), then the constraints left.
+  if (!start.empty() && !matched[start[0]] && rigid_start >= 0) match(start[0]);
+  for (int c = 0; c < num_components; ++c) {
+    if (matched[c]) continue;
+    fuse_ready();
+    match(c);
+  }
+  for (int k = 0; k < num_constraints; ++k) {
+    if (!fused[k]) fuse(k);
+  }
+  plan.trailing = std::move(pending);
+
+  // A point model's seed: its first three levels, when they are the rigid triangle.
+  if (rigid_start < 0 && start.size() == 3 && plan.levels.size() >= 3) {
+    std::vector<int> first = {plan.levels[0].component, plan.levels[1].component,
+                              plan.levels[2].component};
+    std::vector<int> s = start;
+    std::sort(first.begin(), first.end());
+    std::sort(s.begin(), s.end());
+    if (first == s) plan.seed_levels = 3;
+  }
+  return plan;
+}
+
+std::string FormatPlan(const ConstraintGraph& g, const FusionPlan& plan) {
+  std::string out = fmt::format("fusion plan for '{}': {} levels, {} constraints\n", g.name,
+                                plan.levels.size(), g.constraints.size());
+  if (plan.seed_levels > 0) {
+    std::string seed;
+    for (int i = 0; i < plan.seed_levels; ++i) {
+      seed += (i ? ", " : "") +
+              ModelPointName(g, plan.levels[i].component, plan.levels[i].feature);
+    }
+    out += fmt::format("seed: {} (a pose in closed form from their matches)\n", seed);
+  }
+  auto names = [&](const std::vector<int>& constraints) {
+    std::string s;
+    for (int k : constraints) s += (s.empty() ? "" : ", ") + g.constraints[k].name;
+    return s.empty() ? std::string("-") : s;
+  };
+  const int width = static_cast<int>(std::to_string(plan.levels.size()).size());
+  for (size_t i = 0; i < plan.levels.size(); ++i) {
+    const PlanLevel& l = plan.levels[i];
+    out += fmt::format("level {:>{}}: fuse {}; match {}\n", i + 1, width, names(l.constraints),
+                       ModelPointName(g, l.component, l.feature));
+  }
+  out += fmt::format("then: fuse {}\n", names(plan.trailing));
+  return out;
+}
+
+}  // namespace cfuse
