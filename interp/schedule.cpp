@@ -127,7 +127,7 @@ std::string ModelPointName(const ConstraintGraph& graph, int component, int feat
   return feature < 0 ? c.name : c.name + "." + c.points[feature].name;
 }
 
-FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data) {
+FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart* given) {
   const int num_components = static_cast<int>(g.components.size());
   const int num_constraints = static_cast<int>(g.constraints.size());
   std::vector<int> component_of_block(g.blocks.size(), -1);
@@ -143,11 +143,13 @@ FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data) {
 
   // The start: a rigid component's seed features, or a rigid triangle of points.
   std::vector<int> start;
-  const int rigid_start = LargestRigidComponent(g);
-  if (rigid_start >= 0) {
-    start = {rigid_start};
+  int rigid_start = -1;
+  if (given) {
+    start = given->components;
+    if (start.size() == 1 && g.components[start[0]].rigid) rigid_start = start[0];
   } else {
-    start = RigidTriangle(g, components_of);
+    rigid_start = LargestRigidComponent(g);
+    start = rigid_start >= 0 ? std::vector<int>{rigid_start} : RigidTriangle(g, components_of);
   }
   auto in_start = [&](int c) { return std::find(start.begin(), start.end(), c) != start.end(); };
 
@@ -164,8 +166,18 @@ FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data) {
     matched[c] = true;
     const Component& comp = g.components[c];
     int seed_size = 0;
-    const std::vector<int> features =
+    std::vector<int> features =
         comp.rigid ? SeedFirstFeatures(comp, image_data, &seed_size) : std::vector<int>{-1};
+    if (given && c == rigid_start && !given->features.empty()) {
+      // The given seed features first, then the rest in model order.
+      features = given->features;
+      seed_size = static_cast<int>(features.size());
+      for (int f = 0; f < static_cast<int>(comp.points.size()); ++f) {
+        if (std::find(given->features.begin(), given->features.end(), f) == given->features.end()) {
+          features.push_back(f);
+        }
+      }
+    }
     if (plan.levels.empty()) {
       plan.seed_levels = comp.rigid ? seed_size : 0;
       plan.seed_is_rigid_component = comp.rigid && seed_size > 0;

@@ -50,8 +50,16 @@ struct FusionPlan {
   bool seed_is_rigid_component = false;
 };
 
+// Where a plan starts, instead of the automatic choice: a rigid triangle of single-point
+// components, or one rigid component and the features it starts with (its seed set).
+struct PlanStart {
+  std::vector<int> components;
+  std::vector<int> features;  // a rigid start's seed features, in order
+};
+
 // The plan for 3D data (seed sets of 3 points) or 2D data (4 points for a rigid component).
-FusionPlan PlanFusion(const ConstraintGraph& graph, bool image_data = false);
+FusionPlan PlanFusion(const ConstraintGraph& graph, bool image_data = false,
+                      const PlanStart* start = nullptr);
 
 // The components a constraint touches (its blocks that are components', not slacks).
 std::vector<int> ConstraintComponents(const ConstraintGraph& graph, const Constraint& c);

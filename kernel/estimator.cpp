@@ -405,6 +405,24 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   return summary;
 }
 
+Prediction Predict(const Factor& factor, const GaussianState& state) {
+  const ResidualFunction& f = *factor.residual;
+  Prediction p;
+  Eigen::MatrixXd H;
+  EvaluateResidual(f, state.blocks, factor.blocks, state.mean, &p.mean, &H);
+  if (!p.mean.allFinite() || !H.allFinite()) return p;
+  std::vector<int> index;
+  for (int b : factor.blocks) {
+    const Block& block = state.blocks.at(b);
+    for (int i = 0; i < TangentDim(block.kind); ++i) index.push_back(block.tangent_offset + i);
+  }
+  const Eigen::MatrixXd P = state.covariance(index, index);
+  p.covariance = H * P * H.transpose();
+  p.covariance = 0.5 * (p.covariance + p.covariance.transpose());
+  p.valid = p.covariance.allFinite();
+  return p;
+}
+
 double MaxConstraintResidual(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
                              const Values& values) {
   double worst = 0;

@@ -121,6 +121,17 @@ struct SequenceSummary {
 SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* state,
                              const SequenceOptions& options = {});
 
+// What the state predicts for a factor's residual function h (its value at the mean and its
+// covariance H P Hᵀ, the factor's own noise not included): for a measurement residual
+// h(x) - z built with z = 0, the predicted measurement. `valid` is false when h or its
+// Jacobian is not finite there (e.g. a point behind a pinhole camera).
+struct Prediction {
+  Eigen::VectorXd mean;
+  Eigen::MatrixXd covariance;
+  bool valid = false;
+};
+Prediction Predict(const Factor& factor, const GaussianState& state);
+
 // The largest |c_k(x)| over the constraint factors at `values`.
 double MaxConstraintResidual(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
                              const Values& values);

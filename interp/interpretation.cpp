@@ -1,0 +1,969 @@
+#include "interp/interpretation.h"
+
+#include <fmt/format.h>
+
+#include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <unordered_map>
+
+#include "interp/closed_form_pose.h"
+#include "kernel/chi_square.h"
+#include "kernel/evaluate.h"
+#include "kernel/measurements/image_point.h"
+#include "kernel/measurements/point3.h"
+
+namespace cfuse {
+
+const char* StatusName(SearchStats::Status status) {
+  switch (status) {
+    case SearchStats::Status::kComplete:
+      return "complete";
+    case SearchStats::Status::kBudget:
+      return "node budget exhausted";
+  }
+  return "?";
+}
+
+namespace {
+
+constexpr double kTwoPi = 6.283185307179586;
+// Seed sets tried per model (rigid triangles, or feature triples per rigid component).
+constexpr int kMaxSeedSets = 6;
+// P3P solutions computed in all, for image data; beyond it seed generation stops.
+constexpr long kMaxP3pCalls = 200000;
+
+// A model point of the plan: a level's component and feature.
+struct ModelPointRef {
+  int component = -1, feature = -1;
+};
+
+Eigen::Vector3d NominalWorld(const ConstraintGraph& g, ModelPointRef p) {
+  return ModelPoint(g, g.nominal, p.component, p.feature);
+}
+
+// The measurement function of model point `p` against measurement `m`, or with a zero
+// measurement (`m` < 0) for predictions: a 3D point, or an image point when `image`.
+Factor MeasurementFactor(const ConstraintGraph& g, const MeasurementSet& set, ModelPointRef p,
+                         int m, bool image) {
+  const Component& comp = g.components[p.component];
+  const Eigen::Vector3d position =
+      comp.rigid ? comp.points[p.feature].position : Eigen::Vector3d::Zero();
+  std::shared_ptr<const ResidualFunction> f;
+  Eigen::MatrixXd noise;
+  if (!image) {
+    const Eigen::Vector3d z = m >= 0 ? set.points[m].xyz : Eigen::Vector3d::Zero();
+    f = comp.rigid ? std::make_shared<Point3Residual>(position, z)
+                   : std::make_shared<Point3Residual>(z);
+    if (m >= 0) noise = set.points[m].cov3;
+  } else {
+    const Eigen::Vector2d z = m >= 0 ? set.points[m].uv : Eigen::Vector2d::Zero();
+    f = comp.rigid ? std::make_shared<ImagePointResidual>(*set.camera, position, z)
+                   : std::make_shared<ImagePointResidual>(*set.camera, z);
+    if (m >= 0) noise = set.points[m].cov2;
+  }
+  return {f, {comp.block}, noise,
+          fmt::format("measurement {} of {}", m, ModelPointName(g, p.component, p.feature))};
+}
+
+// A candidate for a level: a measurement (or -1, the null branch) with its δ and Lowe's
+// probability p/(p+q).
+struct Candidate {
+  int measurement = -1;
+  double delta = 0;
+  double probability = 0;
+  bool informative = false;  // its gate holds less than one clutter point on average
+};
+
+// A node of the depth-first search whose children are being tried.
+struct Frame {
+  int level = 0;
+  GaussianState state;  // ready to predict `level`: its constraints fused
+  std::vector<Candidate> candidates;
+  size_t next = 0;
+  int matched = 0;
+  double delta_sum = 0;
+  double nis_sum = 0;  // every δ and constraint NIS on the branch (joint compatibility)
+  int nis_dof = 0;
+  std::vector<std::pair<int, double>> best3;  // for the trace
+  std::vector<int> own;  // the level's constraints on its component, fused after the match
+};
+
+// A fusion plan and what the search needs of it.
+struct Context {
+  FusionPlan plan;
+  std::vector<ModelPointRef> points;       // per level
+  std::vector<double> level_gate;          // per level: the gate on a match's total δ
+};
+
+// A seed hypothesis: measurements for some plan levels, and the pose they give the model.
+struct Seed {
+  int context = -1;                             // the plan it starts (Interpreter::contexts_)
+  std::vector<std::pair<int, int>> assignment;  // (plan level, measurement)
+  Rigid3d world_from_nominal;
+  int support = 0;        // model points with a measurement near their seeded position
+  double residual = 0;    // of the seed's own geometry, normalised
+};
+
+// Measurements hashed on a uniform grid, for "is there one within r of x" queries.
+class Grid {
+ public:
+  Grid(double cell, int dims) : cell_(cell), dims_(dims) {}
+  void Add(const Eigen::Vector3d& x, int id) { cells_[Key(x)].push_back({x, id}); }
+  // Whether a point not in `exclude` lies within r (<= cell) of x.
+  bool AnyWithin(const Eigen::Vector3d& x, double r, const std::vector<int>& exclude) const {
+    const Eigen::Vector3i c = Cell(x);
+    const int dz = dims_ == 3 ? 1 : 0;
+    for (int i = -1; i <= 1; ++i) {
+      for (int j = -1; j <= 1; ++j) {
+        for (int k = -dz; k <= dz; ++k) {
+          const auto it = cells_.find(CellKey(c + Eigen::Vector3i(i, j, k)));
+          if (it == cells_.end()) continue;
+          for (const auto& [y, id] : it->second) {
+            if ((y - x).squaredNorm() <= r * r &&
+                std::find(exclude.begin(), exclude.end(), id) == exclude.end()) {
+              return true;
+            }
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  Eigen::Vector3i Cell(const Eigen::Vector3d& x) const {
+    return (x / cell_).array().floor().cast<int>();
+  }
+  static long long CellKey(const Eigen::Vector3i& c) {
+    return (static_cast<long long>(c.x()) * 73856093LL) ^ (static_cast<long long>(c.y()) * 19349663LL) ^
+           (static_cast<long long>(c.z()) * 83492791LL);
+  }
+  long long Key(const Eigen::Vector3d& x) const { return CellKey(Cell(x)); }
+  double cell_;
+  int dims_;
+  std::unordered_map<long long, std::vector<std::pair<Eigen::Vector3d, int>>> cells_;
+};
+
+double LargestVariance(const Eigen::MatrixXd& cov) {
+  return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(cov, Eigen::EigenvaluesOnly)
+      .eigenvalues()
+      .maxCoeff();
+}
+
+class Interpreter {
+ public:
+  Interpreter(const ConstraintGraph& g, const MeasurementSet& set, const InterpretOptions& options,
+              std::vector<bool> use)
+      : g_(g), set_(set), options_(options), use_(std::move(use)) {
+    extent_ = ModelExtent(g);
+    Eigen::AlignedBox3d box3;
+    Eigen::AlignedBox2d box2;
+    for (size_t i = 0; i < set.points.size(); ++i) {
+      const MeasuredPoint& m = set.points[i];
+      if (m.is_3d) {
+        box3.extend(m.xyz);
+        index3_.push_back(static_cast<int>(i));
+      } else {
+        box2.extend(m.uv);
+        index2_.push_back(static_cast<int>(i));
+      }
+    }
+    // Lowe's clutter density q: measurements per volume of their bounding box (3D), per image
+    // area (2D; the points' bounding box when the camera's size is unknown).
+    if (!index3_.empty()) {
+      clutter3_ = index3_.size() / box3.sizes().cwiseMax(0.1 * extent_).prod();
+    }
+    if (!index2_.empty()) {
+      double area = box2.sizes().cwiseMax(1.0).prod();
+      if (set.camera && set.camera->width > 0 && set.camera->height > 0) {
+        area = static_cast<double>(set.camera->width) * set.camera->height;
+      }
+      clutter2_ = index2_.size() / area;
+    }
+    gate3_ = ChiSquareQuantile(options.gate_confidence, 3);
+    gate2_ = ChiSquareQuantile(options.gate_confidence, 2);
+    for (const Constraint& c : g.constraints) {
+      constraint_components_.push_back(ConstraintComponents(g, c));
+    }
+    image_ = index3_.empty() && !index2_.empty();
+    contexts_.push_back(MakeContext(PlanFusion(g, !index2_.empty())));
+    levels_ = static_cast<int>(contexts_[0].plan.levels.size());
+  }
+
+  const FusionPlan& best_plan() const { return contexts_[best_context_].plan; }
+
+  // Searches below each seed, most supported first, until one gives an interpretation that
+  // matches at least half the model's points, or the budget ends; without seeds, from the
+  // nominal geometry (the paper's search).
+  void Run() {
+    std::vector<Seed> seeds = Seeds();
+    stats_.seeds = static_cast<int>(seeds.size());
+    if (seeds.empty()) {
+      Search(nullptr);
+      return;
+    }
+    for (const Seed& seed : seeds) {
+      ++stats_.seeds_tried;
+      Search(&seed);
+      if (stats_.status == SearchStats::Status::kBudget) return;
+      if (2 * best_matched_ >= levels_) return;
+    }
+  }
+
+  SearchStats stats_;
+  int best_matched_ = -1;
+  double best_delta_ = 0;
+  std::vector<int> best_assignment_;
+  std::vector<std::vector<std::pair<int, double>>> best_trace_;
+
+ private:
+  Context MakeContext(FusionPlan plan) const {
+    Context c;
+    c.plan = std::move(plan);
+    for (const PlanLevel& l : c.plan.levels) {
+      c.points.push_back({l.component, l.feature});
+      // A match's δ (its NIS plus that of the constraints placing it) is gated at the
+      // chi-square quantile for the measurement's rows and those constraints' rows.
+      int rows = image_ ? 2 : 3;
+      for (int k : l.constraints) {
+        const std::vector<int>& comps = constraint_components_[k];
+        if (use_[k] && std::find(comps.begin(), comps.end(), l.component) != comps.end()) {
+          rows += g_.constraints[k].residual->dimension();
+        }
+      }
+      c.level_gate.push_back(ChiSquareQuantile(options_.gate_confidence, rows));
+    }
+    return c;
+  }
+
+  // The context whose plan starts with seed set `s`.
+  int ContextFor(const std::vector<ModelPointRef>& s) {
+    PlanStart start;
+    if (g_.components[s[0].component].rigid) {
+      start.components = {s[0].component};
+      for (ModelPointRef p : s) start.features.push_back(p.feature);
+    } else {
+      for (ModelPointRef p : s) start.components.push_back(p.component);
+    }
+    Context c = MakeContext(PlanFusion(g_, !index2_.empty(), &start));
+    // The seed set must open the plan, in order (a triangle's order is the plan's).
+    if (c.plan.seed_levels != static_cast<int>(s.size())) return -1;
+    contexts_.push_back(std::move(c));
+    return static_cast<int>(contexts_.size()) - 1;
+  }
+
+  // ---- Seeds ------------------------------------------------------------------------------
+
+  // Sets of plan levels from which a pose follows in closed form: up to kMaxSeedSets rigid
+  // triangles of single points (best smallest side first, each point in at most two), and per
+  // rigid component its best-spread feature triples (with a fourth feature for image data).
+  std::vector<std::vector<ModelPointRef>> SeedSets(bool image) const {
+    std::vector<std::vector<ModelPointRef>> sets;
+    for (size_t c = 0; c < g_.components.size(); ++c) {
+      const Component& comp = g_.components[c];
+      if (!comp.rigid || comp.points.size() < (image ? 4u : 3u)) continue;
+      const int n = static_cast<int>(comp.points.size());
+      std::vector<std::tuple<double, int, int, int>> triples;
+      for (int i = 0; i < n; ++i)
+        for (int j = i + 1; j < n; ++j)
+          for (int k = j + 1; k < n; ++k) {
+            const auto& p = comp.points;
+            const double area =
+                (p[j].position - p[i].position).cross(p[k].position - p[i].position).norm();
+            if (area > 1e-12) triples.push_back({-area, i, j, k});
+          }
+      std::sort(triples.begin(), triples.end());
+      std::vector<int> uses(n, 0);
+      int taken = 0;
+      for (const auto& [area, i, j, k] : triples) {
+        if (taken == kMaxSeedSets) break;
+        if (uses[i] >= 2 || uses[j] >= 2 || uses[k] >= 2) continue;
+        std::vector<ModelPointRef> set = {{static_cast<int>(c), i}, {static_cast<int>(c), j},
+                                          {static_cast<int>(c), k}};
+        if (image) {
+          const auto& p = comp.points;
+          const Eigen::Vector3d normal =
+              (p[j].position - p[i].position).cross(p[k].position - p[i].position).normalized();
+          int fourth = -1;
+          double far = 1e-9 * extent_;
+          for (int l = 0; l < n; ++l) {
+            if (l == i || l == j || l == k) continue;
+            const double d = std::abs(normal.dot(p[l].position - p[i].position));
+            if (d > far) {
+              far = d;
+              fourth = l;
+            }
+          }
+          if (fourth < 0) continue;  // a planar component: P3P's fourth check needs depth
+          set.push_back({static_cast<int>(c), fourth});
+        }
+        for (int x : {i, j, k}) ++uses[x];
+        sets.push_back(set);
+        ++taken;
+      }
+    }
+    if (!image) {
+      for (const std::vector<int>& t : RigidTriangles()) {
+        sets.push_back({{t[0], -1}, {t[1], -1}, {t[2], -1}});
+      }
+    }
+    return sets;
+  }
+
+  // Triangles of single points pairwise held by `distance == nominal` (or one `rigid`), best
+  // smallest side first, each point in at most two of the kMaxSeedSets kept.
+  std::vector<std::vector<int>> RigidTriangles() const {
+    const int n = static_cast<int>(g_.components.size());
+    std::vector<std::vector<bool>> rigid(n, std::vector<bool>(n, false));
+    std::vector<std::vector<int>> adjacent(n);
+    for (size_t k = 0; k < g_.constraints.size(); ++k) {
+      if (!use_[k]) continue;
+      const Constraint& c = g_.constraints[k];
+      const std::vector<int> comps = ConstraintComponents(g_, c);
+      if (!((c.kind == "distance ==" && comps.size() == 2) || c.kind == "rigid")) continue;
+      for (int a : comps)
+        for (int b : comps)
+          if (a != b && !g_.components[a].rigid && !g_.components[b].rigid && !rigid[a][b]) {
+            rigid[a][b] = true;
+            adjacent[a].push_back(b);
+          }
+    }
+    auto side = [&](int a, int b) {
+      return (NominalWorld(g_, {a, -1}) - NominalWorld(g_, {b, -1})).norm();
+    };
+    std::vector<std::pair<double, std::vector<int>>> all;
+    for (int a = 0; a < n; ++a)
+      for (int b : adjacent[a]) {
+        if (b <= a) continue;
+        for (int c : adjacent[b]) {
+          if (c <= b || !rigid[a][c]) continue;
+          all.push_back({-std::min({side(a, b), side(b, c), side(a, c)}), {a, b, c}});
+          if (all.size() > 100000) break;
+        }
+      }
+    std::sort(all.begin(), all.end());
+    std::vector<std::vector<int>> out;
+    std::vector<int> uses(n, 0);
+    for (const auto& [neg_side, t] : all) {
+      if (static_cast<int>(out.size()) == kMaxSeedSets) break;
+      if (uses[t[0]] >= 2 || uses[t[1]] >= 2 || uses[t[2]] >= 2) continue;
+      for (int x : t) ++uses[x];
+      out.push_back(t);
+    }
+    return out;
+  }
+
+  // Hypotheses for every seed set, most supported first.
+  std::vector<Seed> Seeds() {
+    std::vector<Seed> seeds;
+    const bool image = index3_.empty() && !index2_.empty();
+    if (image && (!set_.camera || set_.camera->model != Camera::Model::kPinhole ||
+                  !options_.poses_from_three_projections)) {
+      return seeds;  // no P3P solver for this camera: the unseeded search
+    }
+    for (const std::vector<ModelPointRef>& s : SeedSets(image)) {
+      const int context = ContextFor(s);
+      if (context < 0) continue;
+      // The seed set in the plan's order (a triangle may open in another order).
+      std::vector<ModelPointRef> ordered;
+      for (int l = 0; l < static_cast<int>(s.size()); ++l) ordered.push_back(contexts_[context].points[l]);
+      if (image) {
+        ImageSeeds(ordered, context, &seeds);
+      } else {
+        PointSeeds(ordered, context, &seeds);
+      }
+    }
+    std::stable_sort(seeds.begin(), seeds.end(), [](const Seed& a, const Seed& b) {
+      return a.support > b.support || (a.support == b.support && a.residual < b.residual);
+    });
+    return seeds;
+  }
+
+  // 3D: measurement triples whose pairwise distances match the seed's within the gate.
+  void PointSeeds(const std::vector<ModelPointRef>& s, int context, std::vector<Seed>* seeds) const {
+    const double k = std::sqrt(ChiSquareQuantile(options_.gate_confidence, 1));
+    std::array<Eigen::Vector3d, 3> model;
+    for (int i = 0; i < 3; ++i) model[i] = NominalWorld(g_, s[i]);
+    const double d01 = (model[0] - model[1]).norm(), d12 = (model[1] - model[2]).norm(),
+                 d02 = (model[0] - model[2]).norm();
+    const int n = static_cast<int>(index3_.size());
+    std::vector<double> sigma2(n);
+    for (int i = 0; i < n; ++i) sigma2[i] = LargestVariance(set_.points[index3_[i]].cov3);
+    auto x = [&](int i) -> const Eigen::Vector3d& { return set_.points[index3_[i]].xyz; };
+    auto fits = [&](int i, int j, double d, double* r2) {
+      const double e = (x(i) - x(j)).norm() - d, var = sigma2[i] + sigma2[j];
+      *r2 += e * e / var;
+      return e * e <= k * k * var;
+    };
+    // Pairs for the seed's first side, then its third point against both.
+    std::vector<std::vector<int>> near12(n);
+    for (int j = 0; j < n; ++j) {
+      for (int l = 0; l < n; ++l) {
+        double r = 0;
+        if (l != j && fits(j, l, d12, &r)) near12[j].push_back(l);
+      }
+    }
+    for (int i = 0; i < n; ++i) {
+      for (int j = 0; j < n; ++j) {
+        double r01 = 0;
+        if (j == i || !fits(i, j, d01, &r01)) continue;
+        for (int l : near12[j]) {
+          double r = r01;
+          if (l == i || !fits(j, l, d12, &r) || !fits(i, l, d02, &r)) continue;
+          Rigid3d pose;
+          if (!AbsoluteOrientation({model[0], model[1], model[2]}, {x(i), x(j), x(l)}, &pose)) {
+            continue;
+          }
+          Seed seed;
+          seed.context = context;
+          seed.assignment = {{0, index3_[i]}, {1, index3_[j]}, {2, index3_[l]}};
+          seed.world_from_nominal = pose;
+          seed.residual = r;
+          seed.support = Support(seed, false);
+          seeds->push_back(std::move(seed));
+        }
+      }
+    }
+  }
+
+  // 2D: P3P on ordered triples of image points, checked by the fourth seed point.
+  void ImageSeeds(const std::vector<ModelPointRef>& s, int context, std::vector<Seed>* seeds) {
+    const Camera& camera = *set_.camera;
+    const int comp = s[0].component;
+    const Rigid3d world_from_comp = g_.nominal.poses[g_.blocks[g_.components[comp].block].index];
+    std::array<Eigen::Vector3d, 3> object;
+    for (int i = 0; i < 3; ++i) object[i] = g_.components[comp].points[s[i].feature].position;
+    const Eigen::Vector3d fourth = g_.components[comp].points[s[3].feature].position;
+    const int n = static_cast<int>(index2_.size());
+    const double k2 = std::sqrt(gate2_);
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j)
+        for (int l = 0; l < n; ++l) {
+          if (i == j || j == l || i == l) continue;
+          if (p3p_calls_ >= kMaxP3pCalls) return;
+          ++p3p_calls_;
+          const std::array<Eigen::Vector2d, 3> image = {set_.points[index2_[i]].uv,
+                                                        set_.points[index2_[j]].uv,
+                                                        set_.points[index2_[l]].uv};
+          for (const Rigid3d& camera_from_comp :
+               options_.poses_from_three_projections(camera, object, image)) {
+            const Eigen::Vector3d q = camera_from_comp * fourth;
+            if (!(q.z() > 0)) continue;
+            const Eigen::Vector2d uv = camera.Project<double>(q);
+            int match = -1;
+            double best = 0;
+            for (int m = 0; m < n; ++m) {
+              if (m == i || m == j || m == l) continue;
+              const MeasuredPoint& z = set_.points[index2_[m]];
+              const double d = (z.uv - uv).norm() / std::sqrt(LargestVariance(z.cov2));
+              if (d <= k2 && (match < 0 || d < best)) {
+                match = m;
+                best = d;
+              }
+            }
+            if (match < 0) continue;
+            Seed seed;
+            seed.context = context;
+            seed.assignment = {{0, index2_[i]}, {1, index2_[j]}, {2, index2_[l]}, {3, index2_[match]}};
+            seed.world_from_nominal = camera_from_comp * world_from_comp.Inverse();
+            seed.residual = best * best;
+            seed.support = Support(seed, true);
+            seeds->push_back(std::move(seed));
+          }
+        }
+  }
+
+  // Model points, placed rigidly with the nominal geometry at the seed's pose, that have a
+  // measurement within 5 % of the extent (3D) or 3 % of the image diagonal (2D).
+  int Support(const Seed& seed, bool image) const {
+    std::vector<int> exclude;
+    for (const auto& [level, m] : seed.assignment) exclude.push_back(m);
+    if (!image) {
+      if (!grid3_) {
+        grid3_.emplace(0.05 * extent_, 3);
+        for (int i : index3_) grid3_->Add(set_.points[i].xyz, i);
+      }
+    } else if (!grid2_) {
+      const Camera& c = *set_.camera;
+      diagonal_ = c.width > 0 ? std::hypot(c.width, c.height) : 1000.0;
+      grid2_.emplace(0.03 * diagonal_, 2);
+      for (int i : index2_) grid2_->Add(Eigen::Vector3d(set_.points[i].uv.x(), set_.points[i].uv.y(), 0), i);
+    }
+    int support = 0;
+    for (int l = 0; l < levels_; ++l) {
+      const Eigen::Vector3d x =
+          seed.world_from_nominal * NominalWorld(g_, contexts_[seed.context].points[l]);
+      if (!image) {
+        support += grid3_->AnyWithin(x, 0.05 * extent_, exclude) ? 1 : 0;
+      } else if (x.z() > 0) {
+        const Eigen::Vector2d uv = set_.camera->Project<double>(x);
+        support += grid2_->AnyWithin(Eigen::Vector3d(uv.x(), uv.y(), 0), 0.03 * diagonal_, exclude)
+                       ? 1
+                       : 0;
+      }
+    }
+    return support;
+  }
+
+  // ---- The tree --------------------------------------------------------------------------
+  //
+  // A frame at level k holds the state after the matches above it and the level's constraints
+  // that do not touch the level's component (`pre`). The level's other constraints (`own`,
+  // which place the point relative to matched ones) are fused after the candidate's
+  // measurement: fused before it, they would be linearised where the point is guessed to be,
+  // and a hard constraint linearised there confines the prediction to a tangent plane the true
+  // point may be centimetres off (the first point of a joint that moved). After the
+  // measurement, each own constraint is linearised at the measured point, and its innovation
+  // NIS tests the match exactly.
+
+  void Search(const Seed* seed) {
+    context_ = seed ? seed->context : 0;
+    ctx_ = &contexts_[context_];
+    Values initial = g_.nominal;
+    if (seed) {
+      for (Rigid3d& pose : initial.poses) pose = seed->world_from_nominal * pose;
+      for (Eigen::Vector3d& p : initial.points) p = seed->world_from_nominal * p;
+    }
+    PriorScale scale;
+    scale.position = options_.solve.prior_extent_factor * extent_;
+    scale.rotation = options_.solve.prior_rotation_sigma;
+    scale.slack = options_.solve.prior_slack_sigma;
+    Frame root;
+    root.state = MakePrior(g_.blocks, initial, scale);
+    preassigned_.assign(levels_, -1);
+    assignment_.assign(levels_, -1);
+    if (seed) {
+      // The seed's matches, fused first; their levels take no other branch.
+      for (const auto& [level, m] : seed->assignment) {
+        preassigned_[level] = m;
+        ++stats_.nodes;
+        const Factor f = MeasurementFactor(g_, set_, ctx_->points[level], m, !set_.points[m].is_3d);
+        if (!Fuse(f, &root.state).changed_state()) {
+          ++stats_.backtracks;
+          return;
+        }
+      }
+    }
+    if (!EnterLevel(&root)) {
+      ++stats_.backtracks;
+      return;
+    }
+    std::vector<Frame> stack;
+    stack.push_back(std::move(root));
+    while (!stack.empty()) {
+      Frame& f = stack.back();
+      if (f.next == f.candidates.size()) {
+        stack.pop_back();
+        continue;
+      }
+      const Candidate c = f.candidates[f.next++];
+      const int real = c.measurement >= 0 ? 1 : 0;
+      // Can this branch still beat the best: more matches, or as many with less total δ?
+      const int can_match = f.matched + real + (levels_ - f.level - 1);
+      if (best_matched_ >= 0 && (can_match < best_matched_ ||
+                                 (can_match == best_matched_ && f.delta_sum >= best_delta_))) {
+        continue;
+      }
+      if (stats_.nodes >= options_.max_nodes) {
+        stats_.status = SearchStats::Status::kBudget;
+        return;
+      }
+      ++stats_.nodes;
+      Frame child;
+      child.level = f.level + 1;
+      child.state = f.state;
+      child.matched = f.matched + real;
+      child.nis_sum = f.nis_sum;
+      child.nis_dof = f.nis_dof;
+      assignment_[f.level] = c.measurement;
+      double delta = 0;  // the match's: its own NIS and that of the constraints placing it
+      if (real && preassigned_[f.level] < 0) {
+        const bool image = !set_.points[c.measurement].is_3d;
+        const Factor factor = MeasurementFactor(g_, set_, ctx_->points[f.level], c.measurement, image);
+        const FusionSummary s = Fuse(factor, &child.state);
+        if (!s.changed_state()) {
+          ++stats_.backtracks;
+          continue;
+        }
+        delta += s.innovation_nis;
+        child.nis_sum += s.innovation_nis;
+        child.nis_dof += image ? 2 : 3;
+      }
+      double own_nis = 0;
+      if (!FuseConstraints(f.own, &child, &own_nis)) {
+        ++stats_.backtracks;
+        continue;
+      }
+      // A match is scored by its own innovation and by how far the constraints placing it had
+      // to move (both vanish for a perfect match); the null branch scores 0.
+      if (real) delta += own_nis;
+      child.delta_sum = f.delta_sum + delta;
+      if (!JointlyCompatible(child) || (real && delta > gate_for_dof(f.level))) {
+        ++stats_.backtracks;
+        continue;
+      }
+      if (can_match == best_matched_ && child.delta_sum >= best_delta_) continue;
+      ++stats_.expanded;
+      if (child.level == levels_) {
+        double trailing_nis = 0;
+        if (FuseConstraints(ctx_->plan.trailing, &child, &trailing_nis) && JointlyCompatible(child)) {
+          Leaf(child, stack);
+        } else {
+          ++stats_.backtracks;
+        }
+        continue;
+      }
+      if (!EnterLevel(&child)) {
+        ++stats_.backtracks;
+        continue;
+      }
+      stack.push_back(std::move(child));
+    }
+  }
+
+  // The gate on a match's total δ: chi-square for the measurement's rows and the rows of the
+  // constraints placing it.
+  double gate_for_dof(int level) const { return ctx_->level_gate[level]; }
+
+  bool JointlyCompatible(const Frame& f) const {
+    if (!options_.joint_compatibility || f.nis_dof == 0) return true;
+    return f.nis_sum <= ChiSquareQuantile(options_.gate_confidence, f.nis_dof);
+  }
+
+  // Fuses `list` into f's state; false when a constraint contradicts what was fused before it,
+  // fails, or its innovation NIS is outside the chi-square gate for its rows. Adds the NIS to
+  // *nis.
+  bool FuseConstraints(const std::vector<int>& list, Frame* f, double* nis) const {
+    for (int k : list) {
+      if (!use_[k]) continue;
+      const Constraint& c = g_.constraints[k];
+      const FusionSummary s = Fuse({c.residual, c.blocks, {}, c.name}, &f->state);
+      if (s.status == FusionSummary::Status::kContradiction ||
+          s.status == FusionSummary::Status::kInvalid ||
+          s.status == FusionSummary::Status::kNotConverged) {
+        return false;
+      }
+      if (s.rows_fused > 0) {
+        if (s.innovation_nis > ChiSquareQuantile(options_.gate_confidence, s.rows_fused)) {
+          return false;
+        }
+        f->nis_sum += s.innovation_nis;
+        f->nis_dof += s.rows_fused;
+        *nis += s.innovation_nis;
+      }
+    }
+    return true;
+  }
+
+  // Sets up f for its level: fuses the level's constraints that do not touch its component,
+  // keeps the others for after the match, and lists the candidates.
+  bool EnterLevel(Frame* f) const {
+    const int level = f->level;
+    const int component = ctx_->points[level].component;
+    f->own.clear();
+    std::vector<int> pre;
+    for (int k : ctx_->plan.levels[level].constraints) {
+      if (!use_[k]) continue;
+      const std::vector<int>& comps = constraint_components_[k];
+      (std::find(comps.begin(), comps.end(), component) != comps.end() ? f->own : pre)
+          .push_back(k);
+    }
+    double nis = 0;
+    if (!FuseConstraints(pre, f, &nis)) return false;
+    BuildCandidates(f);
+    return true;
+  }
+
+  // The level's candidates, best first, and the null branch:
+  //  (A) unused measurements inside the gate around the point predicted with every constraint
+  //      of the level fused (linearised where the point is now guessed);
+  //  (B) for a single point, the other unused measurements at which each own constraint,
+  //      evaluated exactly with the point moved there, is within its gate: they lie on the
+  //      constraints' curved locus (a sphere, a circle) beyond the linear prediction.
+  void BuildCandidates(Frame* f) const {
+    const int level = f->level;
+    f->candidates.clear();
+    f->best3.clear();
+    if (preassigned_[level] >= 0) {
+      f->candidates = {{preassigned_[level], 0, 1, true}};
+      f->best3 = {{preassigned_[level], 0}};
+      return;
+    }
+    std::vector<bool> used(set_.points.size(), false);
+    for (int l = 0; l < levels_; ++l) {
+      if (preassigned_[l] >= 0) used[preassigned_[l]] = true;
+      if (l < level && assignment_[l] >= 0) used[assignment_[l]] = true;
+    }
+    // (A): the linear prediction.
+    GaussianState predicted = f->state;
+    for (int k : f->own) {
+      const Constraint& c = g_.constraints[k];
+      Fuse({c.residual, c.blocks, {}, c.name}, &predicted);
+    }
+    Prediction p3, p2;
+    if (!index3_.empty()) p3 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, false), predicted);
+    if (!index2_.empty()) p2 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, true), predicted);
+    std::vector<bool> listed(set_.points.size(), false);
+    for (size_t m = 0; m < set_.points.size(); ++m) {
+      if (used[m]) continue;
+      const MeasuredPoint& z = set_.points[m];
+      const Prediction& p = z.is_3d ? p3 : p2;
+      if (!p.valid) continue;
+      const Eigen::VectorXd d =
+          p.mean + (z.is_3d ? Eigen::VectorXd(-z.xyz) : Eigen::VectorXd(-z.uv));
+      const Eigen::MatrixXd S =
+          p.covariance + (z.is_3d ? Eigen::MatrixXd(z.cov3) : Eigen::MatrixXd(z.cov2));
+      const Eigen::LLT<Eigen::MatrixXd> llt(S);
+      if (llt.info() != Eigen::Success) continue;
+      const double delta = d.dot(llt.solve(d));
+      if (!(delta <= (z.is_3d ? gate3_ : gate2_))) continue;
+      const double log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
+      const double log_p = -0.5 * delta - 0.5 * (d.size() * std::log(kTwoPi) + log_det);
+      const double q = z.is_3d ? clutter3_ : clutter2_;
+      // p / (p + q), from log p without overflow.
+      const double probability = 1 / (1 + q * std::exp(-log_p));
+      // Clutter points expected inside the gate: q times the gate ellipsoid's volume. Where it
+      // is 1 or more the prediction says little, and p/(p+q) cannot tell a match from clutter.
+      const double dim = static_cast<double>(d.size());
+      const double gate = z.is_3d ? gate3_ : gate2_;
+      const double unit_ball = dim == 3 ? 4.18879020478639 : 3.14159265358979;
+      const double in_gate = q * unit_ball * std::pow(gate, dim / 2) * std::exp(0.5 * log_det);
+      f->candidates.push_back({static_cast<int>(m), delta, probability, in_gate < 1});
+      listed[m] = true;
+    }
+    std::vector<Candidate>& c = f->candidates;
+    std::sort(c.begin(), c.end(), [](const Candidate& a, const Candidate& b) {
+      return a.delta < b.delta || (a.delta == b.delta && a.measurement < b.measurement);
+    });
+    if (options_.probability_order) {
+      std::stable_sort(c.begin(), c.end(), [](const Candidate& a, const Candidate& b) {
+        return a.probability > b.probability;
+      });
+    }
+    // (B): the exact locus of a single point's own constraints.
+    std::vector<Candidate> locus = LocusCandidates(*f, used, listed);
+    // The null branch: last (the paper), or before the first candidate more likely clutter
+    // (where the prediction is sharp enough to say so).
+    size_t at = c.size();
+    if (options_.probability_order) {
+      for (size_t i = 0; i < c.size(); ++i) {
+        if (c[i].informative && c[i].probability < 0.5) {
+          at = i;
+          break;
+        }
+      }
+    }
+    c.insert(c.begin() + static_cast<long>(at), Candidate{-1, 0, 0, true});
+    c.insert(c.end() - (at == c.size() - 1 ? 1 : 0), locus.begin(), locus.end());
+    std::vector<Candidate> all = c;
+    std::sort(all.begin(), all.end(), [](const Candidate& a, const Candidate& b) {
+      return a.delta < b.delta;
+    });
+    for (const Candidate& x : all) {
+      if (x.measurement >= 0 && f->best3.size() < 3) f->best3.push_back({x.measurement, x.delta});
+    }
+  }
+
+  std::vector<Candidate> LocusCandidates(const Frame& f, const std::vector<bool>& used,
+                                         const std::vector<bool>& listed) const {
+    std::vector<Candidate> out;
+    const ModelPointRef point = ctx_->points[f.level];
+    if (g_.components[point.component].rigid || f.own.empty()) return out;
+    const Block& block = g_.blocks[g_.components[point.component].block];
+    // Per own constraint: the residual's variance from everything but the point (at the
+    // current estimate), to which each candidate adds its own noise through the point's
+    // Jacobian.
+    struct Row {
+      int constraint;
+      Eigen::MatrixXd H_point;  // rows x 3
+      Eigen::MatrixXd others;   // rows x rows
+    };
+    std::vector<Row> rows;
+    for (int k : f.own) {
+      const Constraint& c = g_.constraints[k];
+      Eigen::VectorXd r;
+      Eigen::MatrixXd H;
+      EvaluateResidual(*c.residual, g_.blocks, c.blocks, f.state.mean, &r, &H);
+      Row row{k, Eigen::MatrixXd::Zero(r.size(), 3), Eigen::MatrixXd::Zero(r.size(), r.size())};
+      std::vector<int> index;
+      Eigen::MatrixXd H_others(r.size(), 0);
+      int column = 0;
+      for (int b : c.blocks) {
+        const Block& bb = g_.blocks[b];
+        const int dim = TangentDim(bb.kind);
+        if (b == g_.components[point.component].block) {
+          row.H_point += H.middleCols(column, dim);
+        } else {
+          H_others.conservativeResize(Eigen::NoChange, H_others.cols() + dim);
+          H_others.rightCols(dim) = H.middleCols(column, dim);
+          for (int i = 0; i < dim; ++i) index.push_back(bb.tangent_offset + i);
+        }
+        column += dim;
+      }
+      row.others = H_others * f.state.covariance(index, index) * H_others.transpose();
+      rows.push_back(std::move(row));
+    }
+    Values moved = f.state.mean;
+    Eigen::Vector3d& x = moved.points[block.index];
+    for (size_t m = 0; m < set_.points.size(); ++m) {
+      if (used[m] || listed[m] || !set_.points[m].is_3d) continue;
+      x = set_.points[m].xyz;
+      double nis = 0;
+      int dof = 0;
+      bool inside = true;
+      for (const Row& row : rows) {
+        const Constraint& c = g_.constraints[row.constraint];
+        Eigen::VectorXd r;
+        EvaluateResidual(*c.residual, g_.blocks, c.blocks, moved, &r, nullptr);
+        const Eigen::MatrixXd S =
+            row.others + row.H_point * set_.points[m].cov3 * row.H_point.transpose();
+        const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
+        const double e = r.dot(ldlt.solve(r));
+        if (!std::isfinite(e) || e > ChiSquareQuantile(options_.gate_confidence, r.size())) {
+          inside = false;
+          break;
+        }
+        nis += e;
+        dof += static_cast<int>(r.size());
+      }
+      if (inside) out.push_back({static_cast<int>(m), nis, 0, false});
+    }
+    std::sort(out.begin(), out.end(),
+              [](const Candidate& a, const Candidate& b) { return a.delta < b.delta; });
+    return out;
+  }
+
+  void Leaf(const Frame& f, const std::vector<Frame>& path) {
+    const bool better = best_matched_ < 0 || f.matched > best_matched_ ||
+                        (f.matched == best_matched_ && f.delta_sum < best_delta_);
+    if (!better) return;
+    best_matched_ = f.matched;
+    best_delta_ = f.delta_sum;
+    best_context_ = context_;
+    best_assignment_ = assignment_;
+    for (int l = 0; l < levels_; ++l) {
+      if (preassigned_[l] >= 0) best_assignment_[l] = preassigned_[l];
+    }
+    best_trace_.assign(levels_, {});
+    for (const Frame& frame : path) best_trace_[frame.level] = frame.best3;
+  }
+
+  const ConstraintGraph& g_;
+  const MeasurementSet& set_;
+  const InterpretOptions& options_;
+  const std::vector<bool> use_;  // per constraint: fused in the tree
+  std::vector<std::vector<int>> constraint_components_;
+  std::vector<Context> contexts_;  // [0]: the model's own plan; then one per seed set
+  int context_ = 0;
+  const Context* ctx_ = nullptr;  // of the search under way
+  int best_context_ = 0;
+  int levels_ = 0;
+  bool image_ = false;                // image measurements only
+  std::vector<int> index3_, index2_;  // 3D and 2D measurements
+  double extent_ = 1;
+  double clutter3_ = 0, clutter2_ = 0;
+  double gate3_ = 0, gate2_ = 0;
+  std::vector<int> preassigned_;  // per level: the seed's measurement, or -1
+  std::vector<int> assignment_;   // per level on the current branch
+  long p3p_calls_ = 0;
+  mutable std::optional<Grid> grid3_, grid2_;
+  mutable double diagonal_ = 1000;
+};
+
+}  // namespace
+
+Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set,
+                         const InterpretOptions& options) {
+  Interpretation out;
+  std::vector<bool> use(graph.constraints.size(), true);
+  if (!options.use_constraints_between_components) {
+    for (size_t k = 0; k < graph.constraints.size(); ++k) {
+      use[k] = ConstraintComponents(graph, graph.constraints[k]).size() <= 1;
+    }
+  }
+  Interpreter search(graph, set, options, use);
+  search.Run();
+  out.plan = search.best_plan();
+  out.stats = search.stats_;
+  out.stats.levels = static_cast<int>(out.plan.levels.size());
+  out.matches.assign(set.points.size(), "");
+  out.assignment.assign(out.plan.levels.size(), -1);
+  if (search.best_matched_ < 0) return out;
+  out.assignment = search.best_assignment_;
+  out.matched = search.best_matched_;
+  out.total_delta = search.best_delta_;
+  for (size_t l = 0; l < out.plan.levels.size(); ++l) {
+    const PlanLevel& p = out.plan.levels[l];
+    TraceLevel t;
+    t.constraints = p.constraints;
+    t.component = p.component;
+    t.feature = p.feature;
+    t.chosen = out.assignment[l];
+    t.best = search.best_trace_[l];
+    out.trace.push_back(std::move(t));
+    if (out.assignment[l] >= 0) {
+      out.matches[out.assignment[l]] = ModelPointName(graph, p.component, p.feature);
+    }
+  }
+  if (out.matched > 0) {
+    MeasurementSet labelled = set;
+    for (size_t i = 0; i < labelled.points.size(); ++i) labelled.points[i].label = out.matches[i];
+    out.solution = Solve(graph, labelled, options.solve);
+  }
+  return out;
+}
+
+std::string TreeDot(const ConstraintGraph& graph, const MeasurementSet& set,
+                    const Interpretation& in) {
+  (void)set;
+  std::string dot = fmt::format(
+      "digraph interpretation {{\n  label=\"interpretation tree of '{}': per level the 3 best "
+      "candidates (δ), the chosen one bold; constraints fused at each level\";\n  rankdir=TB;\n"
+      "  node [shape=box, fontname=\"Helvetica\", fontsize=10];\n  root [label=\"start\"];\n",
+      graph.name);
+  std::string parent = "root";
+  for (size_t l = 0; l < in.trace.size(); ++l) {
+    const TraceLevel& t = in.trace[l];
+    std::string constraints;
+    for (int k : t.constraints) {
+      constraints += (constraints.empty() ? "" : ", ") + graph.constraints[k].name;
+    }
+    const std::string point = ModelPointName(graph, t.component, t.feature);
+    dot += fmt::format("  subgraph level{} {{ rank=same;\n    info{} [shape=plaintext, label=\"level {}: {}{}\"];\n",
+                       l + 1, l + 1, l + 1, point,
+                       constraints.empty() ? "" : "\\nfused: " + constraints);
+    std::string chosen_node;
+    bool chosen_listed = false;
+    for (size_t i = 0; i < t.best.size(); ++i) {
+      const auto& [m, delta] = t.best[i];
+      const bool chosen = m == t.chosen;
+      const std::string id = fmt::format("n{}_{}", l + 1, i);
+      dot += fmt::format("    {} [label=\"{} ← m{}\\nδ = {:.2f}\"{}];\n", id, point, m, delta,
+                         chosen ? ", style=bold, penwidth=2" : ", color=gray50, fontcolor=gray40");
+      if (chosen) {
+        chosen_node = id;
+        chosen_listed = true;
+      }
+    }
+    if (!chosen_listed) {
+      chosen_node = fmt::format("n{}_c", l + 1);
+      dot += fmt::format("    {} [label=\"{}\", style=bold, penwidth=2];\n", chosen_node,
+                         t.chosen < 0 ? point + " occluded (null)"
+                                      : fmt::format("{} ← m{}", point, t.chosen));
+    }
+    dot += "  }\n";
+    for (size_t i = 0; i < t.best.size(); ++i) {
+      dot += fmt::format("  {} -> n{}_{};\n", parent, l + 1, i);
+    }
+    if (!chosen_listed) dot += fmt::format("  {} -> {};\n", parent, chosen_node);
+    parent = chosen_node;
+  }
+  dot += "}\n";
+  return dot;
+}
+
+}  // namespace cfuse

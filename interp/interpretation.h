@@ -1,0 +1,119 @@
+// The interpretation tree (Hel-Or & Werman 1994, §6-§7): which measured points belong to which
+// model points, found while the estimate is being built, so that every match made narrows the
+// prediction of the next.
+//
+// Levels follow the fusion plan (schedule.h): at level k the constraints scheduled before it
+// are fused, the model point of level k is predicted from the current estimate (mean t̂ and
+// covariance Σ, through the measurement function: a 3D point, or its projection), and every
+// unused measurement u′ with covariance Λ is scored by the Mahalanobis distance
+//     δ = (t̂ - u′)ᵀ (Σ + Λ)⁻¹ (t̂ - u′)
+// and gated at the chi-square quantile of the gate confidence. Survivors are fused tentatively
+// (with local iterations), best first; a null branch at every level stands for an occluded
+// point: the paper's artificial measurement of infinite uncertainty, i.e. nothing is fused and
+// the point stays estimated through its constraints. A branch is dropped when a fusion fails
+// (a contradiction, or a non-finite prediction) or a constraint fused after the matches it
+// depends on disagrees with them: its innovation NIS exceeds the chi-square quantile for its
+// rows.
+//
+// The search is depth first, children best first, and keeps the best complete interpretation:
+// most matched points, then least total δ. After the first complete one it goes on only where
+// a branch can still beat it (matched so far + levels left), until the tree is exhausted or
+// the node budget ends it (status kBudget).
+//
+// Seeds. Under the vague prior a pose is unknown, so gating the first points of the tree means
+// nothing. The plan starts with a seed set from which a pose follows in closed form: a rigid
+// triangle of single points or three features of a rigid component (3D data), four features
+// (image data). Seed hypotheses are the measurement tuples consistent with the seed's
+// geometry: pairwise distances within the gate (3D), or a P3P pose whose fourth point
+// projects within the gate (2D). Each is scored by how many model points, placed rigidly with
+// the nominal geometry at the seed's pose, find a measurement near them (within 5 % of the
+// model's extent, or 3 % of the image diagonal), and the tree is searched below the best
+// first; the whole model starts at the seed's pose (the filter then linearises near the
+// truth).
+//
+// Beyond the paper (InterpretOptions, measured in docs/benchmarks.md):
+//  - joint compatibility (Neira & Tardós 2001): a branch is also dropped when its total
+//    normalised innovation (every δ and every constraint NIS along it) exceeds the chi-square
+//    quantile for its total dimension, which catches many small disagreements that each pass
+//    their own gate;
+//  - Lowe's match probability p/(p+q) (Lowe 1992, eq. 3): p the Gaussian density of the
+//    innovation, q the clutter density (measurements per volume of their bounding box, or per
+//    image area). Candidates are tried by decreasing probability and the null branch before
+//    any candidate more likely clutter than the point (p/(p+q) < 1/2).
+#pragma once
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "constraints/graph.h"
+#include "interp/schedule.h"
+#include "interp/solve.h"
+#include "kernel/measurement_set.h"
+
+namespace cfuse {
+
+// Up to four poses camera_from_object from three correspondences (a P3P solver); the CLI wires
+// in OpenCV's (vision/).
+using PosesFromThreeProjections = std::function<std::vector<Rigid3d>(
+    const Camera& camera, const std::array<Eigen::Vector3d, 3>& object_points,
+    const std::array<Eigen::Vector2d, 3>& image_points)>;
+
+struct InterpretOptions {
+  double gate_confidence = 0.999;  // of the chi-square gates (matches and constraints)
+  long max_nodes = 20000;          // tree nodes (tentative fusions, null branches included)
+  bool joint_compatibility = true;
+  bool probability_order = true;
+  // Off: constraints between components are ignored and each component is interpreted alone
+  // (the paper's divide and conquer; a baseline).
+  bool use_constraints_between_components = true;
+  PosesFromThreeProjections poses_from_three_projections;  // image data: seeds
+  SolveOptions solve;  // the final estimate from the matches found
+};
+
+struct SearchStats {
+  enum class Status {
+    kComplete,  // the tree was searched to the end: the best interpretation is the best
+    kBudget,    // the node budget ended the search: the best found so far
+  };
+  Status status = Status::kComplete;
+  long nodes = 0;       // tree nodes evaluated (tentative fusions, null branches included)
+  long expanded = 0;    // of which passed their tests and were searched below
+  long backtracks = 0;  // branches dropped as inconsistent
+  int levels = 0;
+  int seeds = 0;        // seed hypotheses found
+  int seeds_tried = 0;  // of which searched below
+};
+const char* StatusName(SearchStats::Status status);
+
+// The paper's Figure 3: along the best branch, per level, the best-scored candidates and the
+// constraints fused there.
+struct TraceLevel {
+  std::vector<int> constraints;
+  int component = -1, feature = -1;
+  int chosen = -1;  // measurement matched, -1 for the null branch
+  std::vector<std::pair<int, double>> best;  // up to 3 (measurement, δ), best first
+};
+
+struct Interpretation {
+  std::vector<int> assignment;       // per plan level: the measurement matched, or -1
+  std::vector<std::string> matches;  // per measurement: the model point, or "" (clutter)
+  int matched = 0;
+  double total_delta = 0;
+  SearchStats stats;
+  FusionPlan plan;
+  std::vector<TraceLevel> trace;
+  // The estimate from the matches (interp/solve.h), when at least one point was matched.
+  std::optional<Solution> solution;
+};
+
+// Measurements are those of `set`; their labels are ignored.
+Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set,
+                         const InterpretOptions& options = {});
+
+// The explored tree in Graphviz dot, like the paper's Figure 3.
+std::string TreeDot(const ConstraintGraph& graph, const MeasurementSet& set,
+                    const Interpretation& interpretation);
+
+}  // namespace cfuse

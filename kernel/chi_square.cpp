@@ -1,0 +1,60 @@
+#include "kernel/chi_square.h"
+
+#include <cmath>
+
+#include "kernel/check.h"
+
+namespace cfuse {
+namespace {
+
+// The regularised lower incomplete gamma P(a, x).
+double RegularisedGammaP(double a, double x) {
+  if (x <= 0) return 0;
+  const double log_prefix = a * std::log(x) - x - std::lgamma(a);
+  if (x < a + 1) {
+    // Series: P = e^-x x^a / Γ(a+1) Σ x^n / ((a+1)...(a+n)).
+    double term = 1 / a, sum = term;
+    for (int n = 1; n < 1000; ++n) {
+      term *= x / (a + n);
+      sum += term;
+      if (std::abs(term) < std::abs(sum) * 1e-16) break;
+    }
+    return std::min(1.0, sum * std::exp(log_prefix));
+  }
+  // Continued fraction for Q = 1 - P (modified Lentz).
+  const double tiny = 1e-300;
+  double b = x + 1 - a, c = 1 / tiny, d = 1 / b, h = d;
+  for (int i = 1; i < 1000; ++i) {
+    const double an = -i * (i - a);
+    b += 2;
+    d = an * d + b;
+    if (std::abs(d) < tiny) d = tiny;
+    c = b + an / c;
+    if (std::abs(c) < tiny) c = tiny;
+    d = 1 / d;
+    const double delta = d * c;
+    h *= delta;
+    if (std::abs(delta - 1) < 1e-16) break;
+  }
+  return std::max(0.0, 1 - std::exp(log_prefix) * h);
+}
+
+}  // namespace
+
+double ChiSquareCdf(double x, double dof) {
+  CFUSE_CHECK(dof > 0);
+  return RegularisedGammaP(0.5 * dof, 0.5 * x);
+}
+
+double ChiSquareQuantile(double p, double dof) {
+  CFUSE_CHECK(p > 0 && p < 1 && dof > 0);
+  double lo = 0, hi = dof + 10 * std::sqrt(2 * dof) + 50;
+  while (ChiSquareCdf(hi, dof) < p) hi *= 2;
+  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
+    const double mid = 0.5 * (lo + hi);
+    (ChiSquareCdf(mid, dof) < p ? lo : hi) = mid;
+  }
+  return 0.5 * (lo + hi);
+}
+
+}  // namespace cfuse
