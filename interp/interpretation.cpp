@@ -674,8 +674,62 @@ class Interpreter {
     }
     double nis = 0;
     if (!FuseConstraints(pre, f, &nis)) return false;
+    Recentre(f, component);
     BuildCandidates(f);
     return true;
+  }
+
+  // Where the filter linearises an unmatched component decides what its constraints predict.
+  // The seed placed the whole nominal model rigidly, which is far off for parts beyond a few
+  // joints; so while the component is still untouched by any fusion (its mean is free under
+  // the vague prior), it is placed with the nominal geometry relative to its matched
+  // neighbours: the rigid motion of a matched rigid neighbour, or the one that best maps three
+  // or more matched neighbouring points onto their estimates.
+  void Recentre(Frame* f, int component) const {
+    GaussianState& state = f->state;
+    const int block = g_.components[component].block;
+    std::vector<int> group;
+    if (state.groups.num_blocks() == static_cast<int>(g_.blocks.size())) {
+      state.groups.Support(std::vector<int>{block}, &group);
+      if (group.size() > 1) return;
+    }
+    std::vector<bool> matched(g_.components.size(), false);
+    for (int l = 0; l < f->level; ++l) {
+      if (assignment_[l] >= 0 || preassigned_[l] >= 0) matched[ctx_->points[l].component] = true;
+    }
+    for (int l = 0; l < levels_; ++l) {
+      if (preassigned_[l] >= 0) matched[ctx_->points[l].component] = true;
+    }
+    std::vector<Eigen::Vector3d> from, to;
+    std::optional<Rigid3d> motion;
+    for (size_t k = 0; k < g_.constraints.size() && !motion; ++k) {
+      const std::vector<int>& comps = constraint_components_[k];
+      if (!use_[k] || std::find(comps.begin(), comps.end(), component) == comps.end()) continue;
+      for (int n : comps) {
+        if (n == component || !matched[n]) continue;
+        const Component& c = g_.components[n];
+        const Block& b = g_.blocks[c.block];
+        if (c.rigid) {
+          motion = state.mean.poses[b.index] * g_.nominal.poses[b.index].Inverse();
+          break;
+        }
+        if (std::find(to.begin(), to.end(), state.mean.points[b.index]) == to.end()) {
+          from.push_back(g_.nominal.points[b.index]);
+          to.push_back(state.mean.points[b.index]);
+        }
+      }
+    }
+    if (!motion) {
+      Rigid3d fit;
+      if (!AbsoluteOrientation(from, to, &fit)) return;
+      motion = fit;
+    }
+    const Block& b = g_.blocks[block];
+    if (g_.components[component].rigid) {
+      state.mean.poses[b.index] = *motion * g_.nominal.poses[b.index];
+    } else {
+      state.mean.points[b.index] = *motion * g_.nominal.points[b.index];
+    }
   }
 
   // The level's candidates, best first, and the null branch:
@@ -773,54 +827,41 @@ class Interpreter {
     std::vector<Candidate> out;
     const ModelPointRef point = ctx_->points[f.level];
     if (g_.components[point.component].rigid || f.own.empty()) return out;
-    const Block& block = g_.blocks[g_.components[point.component].block];
-    // Per own constraint: the residual's variance from everything but the point (at the
-    // current estimate), to which each candidate adds its own noise through the point's
-    // Jacobian.
-    struct Row {
-      int constraint;
-      Eigen::MatrixXd H_point;  // rows x 3
-      Eigen::MatrixXd others;   // rows x rows
-    };
-    std::vector<Row> rows;
-    for (int k : f.own) {
-      const Constraint& c = g_.constraints[k];
-      Eigen::VectorXd r;
-      Eigen::MatrixXd H;
-      EvaluateResidual(*c.residual, g_.blocks, c.blocks, f.state.mean, &r, &H);
-      Row row{k, Eigen::MatrixXd::Zero(r.size(), 3), Eigen::MatrixXd::Zero(r.size(), r.size())};
-      std::vector<int> index;
-      Eigen::MatrixXd H_others(r.size(), 0);
-      int column = 0;
-      for (int b : c.blocks) {
-        const Block& bb = g_.blocks[b];
-        const int dim = TangentDim(bb.kind);
-        if (b == g_.components[point.component].block) {
-          row.H_point += H.middleCols(column, dim);
-        } else {
-          H_others.conservativeResize(Eigen::NoChange, H_others.cols() + dim);
-          H_others.rightCols(dim) = H.middleCols(column, dim);
-          for (int i = 0; i < dim; ++i) index.push_back(bb.tangent_offset + i);
-        }
-        column += dim;
-      }
-      row.others = H_others * f.state.covariance(index, index) * H_others.transpose();
-      rows.push_back(std::move(row));
-    }
+    const int point_block = g_.components[point.component].block;
     Values moved = f.state.mean;
-    Eigen::Vector3d& x = moved.points[block.index];
+    Eigen::Vector3d& x = moved.points[g_.blocks[point_block].index];
+    Eigen::VectorXd r;
+    Eigen::MatrixXd H;
     for (size_t m = 0; m < set_.points.size(); ++m) {
       if (used[m] || listed[m] || !set_.points[m].is_3d) continue;
       x = set_.points[m].xyz;
+      // Each own constraint evaluated with the point moved to the measurement; its variance
+      // from the other blocks' covariance and the measurement's, through the Jacobian there.
       double nis = 0;
-      int dof = 0;
       bool inside = true;
-      for (const Row& row : rows) {
-        const Constraint& c = g_.constraints[row.constraint];
-        Eigen::VectorXd r;
-        EvaluateResidual(*c.residual, g_.blocks, c.blocks, moved, &r, nullptr);
-        const Eigen::MatrixXd S =
-            row.others + row.H_point * set_.points[m].cov3 * row.H_point.transpose();
+      for (int k : f.own) {
+        const Constraint& c = g_.constraints[k];
+        EvaluateResidual(*c.residual, g_.blocks, c.blocks, moved, &r, &H);
+        Eigen::MatrixXd S = Eigen::MatrixXd::Zero(r.size(), r.size());
+        std::vector<int> index;
+        std::vector<int> columns;
+        int column = 0;
+        for (int b : c.blocks) {
+          const Block& block = g_.blocks[b];
+          const int dim = TangentDim(block.kind);
+          if (b == point_block) {
+            const Eigen::MatrixXd Hp = H.middleCols(column, dim);
+            S += Hp * set_.points[m].cov3 * Hp.transpose();
+          } else {
+            for (int i = 0; i < dim; ++i) {
+              index.push_back(block.tangent_offset + i);
+              columns.push_back(column + i);
+            }
+          }
+          column += dim;
+        }
+        const Eigen::MatrixXd Ho = H(Eigen::all, columns);
+        S += Ho * f.state.covariance(index, index) * Ho.transpose();
         const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
         const double e = r.dot(ldlt.solve(r));
         if (!std::isfinite(e) || e > ChiSquareQuantile(options_.gate_confidence, r.size())) {
@@ -828,7 +869,6 @@ class Interpreter {
           break;
         }
         nis += e;
-        dof += static_cast<int>(r.size());
       }
       if (inside) out.push_back({static_cast<int>(m), nis, 0, false});
     }

@@ -216,25 +216,63 @@ FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart
     }
     if (!remaining(fused) || !remaining(matched)) break;
     // (c) One constraint touching a matched component: unmatched components in the start
-    // first, then the fewest unmatched, then the most matched, then model order.
+    // first, then the fewest unmatched, then (for one unmatched component) the one most held
+    // to matched components (rows of the constraints between it and them), then the most
+    // matched, then model order.
+    auto rows_to_matched = [&](int u) {
+      int rows = 0;
+      for (int k = 0; k < num_constraints; ++k) {
+        if (fused[k]) continue;
+        const std::vector<int>& comps = components_of[k];
+        if (std::find(comps.begin(), comps.end(), u) == comps.end()) continue;
+        if (std::all_of(comps.begin(), comps.end(), [&](int c) { return c == u || matched[c]; })) {
+          rows += g.constraints[k].residual->dimension();
+        }
+      }
+      return rows;
+    };
     int pick = -1;
-    std::tuple<int, int, int> best_key;
+    std::tuple<int, int, int, int> best_key;
     for (int k = 0; k < num_constraints; ++k) {
       if (fused[k]) continue;
-      int m = 0, u = 0, u_outside_start = 0;
+      int m = 0, u = 0, u_outside_start = 0, last_unmatched = -1;
       for (int c : components_of[k]) {
         if (matched[c]) {
           ++m;
         } else {
           ++u;
           u_outside_start += in_start(c) ? 0 : 1;
+          last_unmatched = c;
         }
       }
       if (m == 0) continue;
-      const std::tuple<int, int, int> key{u_outside_start, u, -m};
+      const int held = u == 1 ? rows_to_matched(last_unmatched) : 0;
+      const std::tuple<int, int, int, int> key{u_outside_start, u, -held, -m};
       if (pick < 0 || key < best_key) {
         pick = k;
         best_key = key;
+      }
+    }
+    // (c') Beyond the paper: with a constraint that reaches one unmatched component, every
+    // other constraint between that component and matched ones is fused too, so that its match
+    // is predicted (and tested) by all of them rather than by one.
+    std::vector<int> with_pick;
+    if (pick >= 0) {
+      std::vector<int> unmatched;
+      for (int c : components_of[pick]) {
+        if (!matched[c]) unmatched.push_back(c);
+      }
+      if (unmatched.size() == 1) {
+        const int u = unmatched[0];
+        for (int k = 0; k < num_constraints; ++k) {
+          if (fused[k] || k == pick) continue;
+          const std::vector<int>& comps = components_of[k];
+          if (std::find(comps.begin(), comps.end(), u) != comps.end() &&
+              std::all_of(comps.begin(), comps.end(),
+                          [&](int c) { return c == u || matched[c]; })) {
+            with_pick.push_back(k);
+          }
+        }
       }
     }
     // (d) Else: at the start, a constraint on the start set (touching the rigid start
@@ -258,8 +296,17 @@ FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart
       }
     }
     fuse(pick);
+    for (int k : with_pick) fuse(k);
   }
-  // Components no constraint touches (the start one first), then the constraints left.
+  // The components the last fused constraints reached, then those no constraint touches (the
+  // start one first), then the constraints left.
+  for (int c = 0; c < num_components; ++c) {
+    if (!matched[c] && std::find(components_of_fused.begin(), components_of_fused.end(), c) !=
+                           components_of_fused.end()) {
+      fuse_ready();
+      match(c);
+    }
+  }
   if (!start.empty() && !matched[start[0]] && rigid_start >= 0) match(start[0]);
   for (int c = 0; c < num_components; ++c) {
     if (matched[c]) continue;

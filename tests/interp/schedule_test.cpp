@@ -141,13 +141,14 @@ constraints:
     const FusionPlan plan = PlanFusion(g);
     REQUIRE(plan.seed_levels == 3);
     // (d) at the start: ab, the first constraint within the triangle; (b) a, b; (c) prefers
-    // the constraint reaching the triangle's c (bc, first in model order of ca and bc); then
-    // (a) ca; (c) ae (fewest unmatched, model order), e; (a) be; x, linked to nothing, last.
+    // the constraint reaching the triangle's c (bc, first in model order of ca and bc) and
+    // (c') fuses ca with it; c; (c) ae, which reaches e, with be (c'); e; x, linked to
+    // nothing, last.
     CHECK(Matches(g, plan) == std::vector<std::string>{"a", "b", "c", "e", "x"});
     CHECK(Fused(g, plan.levels[0].constraints) == std::vector<std::string>{"ab"});
-    CHECK(Fused(g, plan.levels[2].constraints) == std::vector<std::string>{"bc"});
-    CHECK(Fused(g, plan.levels[3].constraints) == std::vector<std::string>{"ca", "ae"});
-    CHECK(Fused(g, plan.levels[4].constraints) == std::vector<std::string>{"be"});
+    CHECK(Fused(g, plan.levels[2].constraints) == std::vector<std::string>{"bc", "ca"});
+    CHECK(Fused(g, plan.levels[3].constraints) == std::vector<std::string>{"ae", "be"});
+    CHECK(Fused(g, plan.levels[4].constraints).empty());
     CheckInvariants(g, plan);
   }
   SECTION("one rigid component and no constraints: its seed features first") {
