@@ -18,6 +18,7 @@
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
 #include "dsl/pose_reader.h"
+#include "interp/interpretation.h"
 #include "interp/schedule.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
@@ -163,6 +164,52 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
       err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes\n",
                          solution.summary.max_constraint_residual, solution.summary.passes);
       return 1;
+    }
+    return 0;
+  });
+}
+
+int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+    InterpretOptions interpret;
+    interpret.gate_confidence = options.gate;
+    interpret.max_nodes = options.max_nodes;
+    interpret.poses_from_three_projections = &vision::PosesFromThreeProjections;
+    interpret.solve.pose_from_projections = &vision::PoseFromProjections;
+    const auto start = std::chrono::steady_clock::now();
+    const Interpretation in = Interpret(graph, set, interpret);
+    const double ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    if (!in.solution) {
+      err << fmt::format(
+          "cfuse: no interpretation: no measurement matches a model point ({} of {} nodes, {})\n",
+          in.stats.nodes, options.max_nodes, StatusName(in.stats.status));
+      return 1;
+    }
+    nlohmann::json result = SolutionJson(graph, set, *in.solution, ms);
+    result["search"] = {{"status", StatusName(in.stats.status)},
+                        {"nodes", in.stats.nodes},
+                        {"nodes_expanded", in.stats.expanded},
+                        {"backtracks", in.stats.backtracks},
+                        {"levels", in.stats.levels},
+                        {"seeds", in.stats.seeds},
+                        {"seeds_tried", in.stats.seeds_tried},
+                        {"matched", in.matched},
+                        {"total_delta", in.total_delta}};
+    const std::string text = result.dump(2) + "\n";
+    const std::string dot = options.tree.empty() ? "" : TreeDot(graph, set, in);
+    if (!options.tree.empty()) WriteFileAtomically(options.tree, dot);
+    if (options.output.empty()) {
+      out << text;
+    } else {
+      WriteFileAtomically(options.output, text);
+    }
+    if (in.stats.status == SearchStats::Status::kBudget) {
+      err << fmt::format("cfuse: the node budget ({}) ended the search: the best interpretation "
+                         "found so far is written\n",
+                         options.max_nodes);
     }
     return 0;
   });

@@ -37,6 +37,16 @@ struct SolveCommandOptions {
 };
 int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err);
 
+struct InterpretCommandOptions {
+  std::string model;
+  std::string measurements;
+  std::string output;  // empty: stdout
+  std::string tree;    // Graphviz file of the explored tree; empty: none
+  double gate = 0.999;
+  long max_nodes = 20000;
+};
+int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std::ostream& err);
+
 struct SimulateCommandOptions {
   std::string model;
   unsigned seed = 1;

@@ -35,6 +35,19 @@ int main(int argc, char** argv) {
                         "Starting poses (results format, e.g. a previous result)");
   solve_cmd->add_option("-o,--output", solve.output, "Result file (default: stdout)");
 
+  cfuse::cli::InterpretCommandOptions interp;
+  CLI::App* interp_cmd = app.add_subcommand(
+      "interpret", "Match unlabelled measurements to the model and estimate (interpretation tree)");
+  interp_cmd->add_option("MODEL", interp.model, "Model file (.yaml)")->required();
+  interp_cmd->add_option("--measurements", interp.measurements, "Measurements (.json or .yaml)")
+      ->required();
+  interp_cmd->add_option("-o,--output", interp.output, "Result file (default: stdout)");
+  interp_cmd->add_option("--tree", interp.tree, "Write the explored tree (Graphviz dot)");
+  interp_cmd->add_option("--gate", interp.gate, "Confidence of the chi-square gates (default 0.999)")
+      ->check(CLI::Range(0.5, 0.999999999));
+  interp_cmd->add_option("--max-nodes", interp.max_nodes, "Node budget (default 20000)")
+      ->check(CLI::Range(1L, 100000000L));
+
   cfuse::cli::SimulateCommandOptions sim;
   CLI::App* sim_cmd =
       app.add_subcommand("simulate", "Synthetic measurements of a random configuration");
@@ -66,6 +79,7 @@ int main(int argc, char** argv) {
   if (*graph_cmd) return cfuse::cli::RunGraph(graph, std::cout, std::cerr);
   if (*plan_cmd) return cfuse::cli::RunPlan(plan, std::cout, std::cerr);
   if (*solve_cmd) return cfuse::cli::RunSolve(solve, std::cout, std::cerr);
+  if (*interp_cmd) return cfuse::cli::RunInterpret(interp, std::cout, std::cerr);
   if (*sim_cmd) return cfuse::cli::RunSimulate(sim, std::cout, std::cerr);
   if (*demo_cmd) return cfuse::cli::RunDemo(std::cout, std::cerr);
   return 2;

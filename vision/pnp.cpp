@@ -35,4 +35,35 @@ bool PoseFromProjections(const Camera& camera, const std::vector<Eigen::Vector3d
   return Re.allFinite() && camera_from_object->translation.allFinite();
 }
 
+std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
+                                               const std::array<Eigen::Vector3d, 3>& object_points,
+                                               const std::array<Eigen::Vector2d, 3>& image_points) {
+  std::vector<Rigid3d> poses;
+  if (camera.model != Camera::Model::kPinhole) return poses;
+  std::vector<cv::Point3d> object;
+  std::vector<cv::Point2d> image;
+  for (int i = 0; i < 3; ++i) {
+    object.emplace_back(object_points[i].x(), object_points[i].y(), object_points[i].z());
+    image.emplace_back(image_points[i].x(), image_points[i].y());
+  }
+  const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+  const std::vector<double> dist(camera.distortion.begin(), camera.distortion.end());
+  std::vector<cv::Mat> rvecs, tvecs;
+  try {
+    cv::solveP3P(object, image, K, dist, rvecs, tvecs, cv::SOLVEPNP_P3P);
+  } catch (const cv::Exception&) {
+    return poses;  // degenerate (collinear points, coincident rays)
+  }
+  for (size_t i = 0; i < rvecs.size(); ++i) {
+    cv::Matx33d R;
+    cv::Rodrigues(rvecs[i], R);
+    Eigen::Matrix3d Re;
+    cv::cv2eigen(cv::Mat(R), Re);
+    Eigen::Vector3d t;
+    cv::cv2eigen(tvecs[i], t);
+    if (Re.allFinite() && t.allFinite()) poses.emplace_back(Re, t);
+  }
+  return poses;
+}
+
 }  // namespace cfuse::vision
