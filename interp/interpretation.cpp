@@ -65,7 +65,9 @@ Factor MeasurementFactor(const ConstraintGraph& g, const MeasurementSet& set, Mo
                    : std::make_shared<ImagePointResidual>(*set.camera, z);
     if (m >= 0) noise = set.points[m].cov2;
   }
-  return {f, {comp.block}, noise,
+  return {f,
+          {comp.block},
+          noise,
           fmt::format("measurement {} of {}", m, ModelPointName(g, p.component, p.feature))};
 }
 
@@ -95,8 +97,8 @@ struct Frame {
 // A fusion plan and what the search needs of it.
 struct Context {
   FusionPlan plan;
-  std::vector<ModelPointRef> points;       // per level
-  std::vector<double> level_gate;          // per level: the gate on a match's total δ
+  std::vector<ModelPointRef> points;  // per level
+  std::vector<double> level_gate;     // per level: the gate on a match's total δ
 };
 
 // A seed hypothesis: measurements for some plan levels, and the pose they give the model.
@@ -104,8 +106,8 @@ struct Seed {
   int context = -1;                             // the plan it starts (Interpreter::contexts_)
   std::vector<std::pair<int, int>> assignment;  // (plan level, measurement)
   Rigid3d world_from_nominal;
-  int support = 0;        // model points with a measurement near their seeded position
-  double residual = 0;    // of the seed's own geometry, normalised
+  int support = 0;      // model points with a measurement near their seeded position
+  double residual = 0;  // of the seed's own geometry, normalised
 };
 
 // Measurements hashed on a uniform grid, for "is there one within r of x" queries.
@@ -139,7 +141,8 @@ class Grid {
     return (x / cell_).array().floor().cast<int>();
   }
   static long long CellKey(const Eigen::Vector3i& c) {
-    return (static_cast<long long>(c.x()) * 73856093LL) ^ (static_cast<long long>(c.y()) * 19349663LL) ^
+    return (static_cast<long long>(c.x()) * 73856093LL) ^
+           (static_cast<long long>(c.y()) * 19349663LL) ^
            (static_cast<long long>(c.z()) * 83492791LL);
   }
   long long Key(const Eigen::Vector3d& x) const { return CellKey(Cell(x)); }
@@ -282,8 +285,8 @@ class Interpreter {
       for (const auto& [area, i, j, k] : triples) {
         if (taken == kMaxSeedSets) break;
         if (uses[i] >= 2 || uses[j] >= 2 || uses[k] >= 2) continue;
-        std::vector<ModelPointRef> set = {{static_cast<int>(c), i}, {static_cast<int>(c), j},
-                                          {static_cast<int>(c), k}};
+        std::vector<ModelPointRef> set = {
+            {static_cast<int>(c), i}, {static_cast<int>(c), j}, {static_cast<int>(c), k}};
         if (image) {
           const auto& p = comp.points;
           const Eigen::Vector3d normal =
@@ -370,7 +373,8 @@ class Interpreter {
       if (context < 0) continue;
       // The seed set in the plan's order (a triangle may open in another order).
       std::vector<ModelPointRef> ordered;
-      for (int l = 0; l < static_cast<int>(s.size()); ++l) ordered.push_back(contexts_[context].points[l]);
+      for (int l = 0; l < static_cast<int>(s.size()); ++l)
+        ordered.push_back(contexts_[context].points[l]);
       if (image) {
         ImageSeeds(ordered, context, &seeds);
       } else {
@@ -384,7 +388,8 @@ class Interpreter {
   }
 
   // 3D: measurement triples whose pairwise distances match the seed's within the gate.
-  void PointSeeds(const std::vector<ModelPointRef>& s, int context, std::vector<Seed>* seeds) const {
+  void PointSeeds(const std::vector<ModelPointRef>& s, int context,
+                  std::vector<Seed>* seeds) const {
     const double k = std::sqrt(ChiSquareQuantile(options_.gate_confidence, 1));
     std::array<Eigen::Vector3d, 3> model;
     for (int i = 0; i < 3; ++i) model[i] = NominalWorld(g_, s[i]);
@@ -446,9 +451,8 @@ class Interpreter {
           if (i == j || j == l || i == l) continue;
           if (p3p_calls_ >= kMaxP3pCalls) return;
           ++p3p_calls_;
-          const std::array<Eigen::Vector2d, 3> image = {set_.points[index2_[i]].uv,
-                                                        set_.points[index2_[j]].uv,
-                                                        set_.points[index2_[l]].uv};
+          const std::array<Eigen::Vector2d, 3> image = {
+              set_.points[index2_[i]].uv, set_.points[index2_[j]].uv, set_.points[index2_[l]].uv};
           for (const Rigid3d& camera_from_comp :
                options_.poses_from_three_projections(camera, object, image)) {
             const Eigen::Vector3d q = camera_from_comp * fourth;
@@ -468,7 +472,8 @@ class Interpreter {
             if (match < 0) continue;
             Seed seed;
             seed.context = context;
-            seed.assignment = {{0, index2_[i]}, {1, index2_[j]}, {2, index2_[l]}, {3, index2_[match]}};
+            seed.assignment = {
+                {0, index2_[i]}, {1, index2_[j]}, {2, index2_[l]}, {3, index2_[match]}};
             seed.world_from_nominal = camera_from_comp * world_from_comp.Inverse();
             seed.residual = best * best;
             seed.support = Support(seed, true);
@@ -491,7 +496,8 @@ class Interpreter {
       const Camera& c = *set_.camera;
       diagonal_ = c.width > 0 ? std::hypot(c.width, c.height) : 1000.0;
       grid2_.emplace(0.03 * diagonal_, 2);
-      for (int i : index2_) grid2_->Add(Eigen::Vector3d(set_.points[i].uv.x(), set_.points[i].uv.y(), 0), i);
+      for (int i : index2_)
+        grid2_->Add(Eigen::Vector3d(set_.points[i].uv.x(), set_.points[i].uv.y(), 0), i);
     }
     int support = 0;
     for (int l = 0; l < levels_; ++l) {
@@ -583,7 +589,8 @@ class Interpreter {
       double delta = 0;  // the match's: its own NIS and that of the constraints placing it
       if (real && preassigned_[f.level] < 0) {
         const bool image = !set_.points[c.measurement].is_3d;
-        const Factor factor = MeasurementFactor(g_, set_, ctx_->points[f.level], c.measurement, image);
+        const Factor factor =
+            MeasurementFactor(g_, set_, ctx_->points[f.level], c.measurement, image);
         const FusionSummary s = Fuse(factor, &child.state);
         if (!s.changed_state()) {
           ++stats_.backtracks;
@@ -610,7 +617,8 @@ class Interpreter {
       ++stats_.expanded;
       if (child.level == levels_) {
         double trailing_nis = 0;
-        if (FuseConstraints(ctx_->plan.trailing, &child, &trailing_nis) && JointlyCompatible(child)) {
+        if (FuseConstraints(ctx_->plan.trailing, &child, &trailing_nis) &&
+            JointlyCompatible(child)) {
           Leaf(child, stack);
         } else {
           ++stats_.backtracks;
@@ -669,8 +677,7 @@ class Interpreter {
     for (int k : ctx_->plan.levels[level].constraints) {
       if (!use_[k]) continue;
       const std::vector<int>& comps = constraint_components_[k];
-      (std::find(comps.begin(), comps.end(), component) != comps.end() ? f->own : pre)
-          .push_back(k);
+      (std::find(comps.begin(), comps.end(), component) != comps.end() ? f->own : pre).push_back(k);
     }
     double nis = 0;
     if (!FuseConstraints(pre, f, &nis)) return false;
@@ -759,8 +766,10 @@ class Interpreter {
       Fuse({c.residual, c.blocks, {}, c.name}, &predicted);
     }
     Prediction p3, p2;
-    if (!index3_.empty()) p3 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, false), predicted);
-    if (!index2_.empty()) p2 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, true), predicted);
+    if (!index3_.empty())
+      p3 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, false), predicted);
+    if (!index2_.empty())
+      p2 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, true), predicted);
     std::vector<bool> listed(set_.points.size(), false);
     for (size_t m = 0; m < set_.points.size(); ++m) {
       if (used[m]) continue;
@@ -814,9 +823,8 @@ class Interpreter {
     c.insert(c.begin() + static_cast<long>(at), Candidate{-1, 0, 0, true});
     c.insert(c.end() - (at == c.size() - 1 ? 1 : 0), locus.begin(), locus.end());
     std::vector<Candidate> all = c;
-    std::sort(all.begin(), all.end(), [](const Candidate& a, const Candidate& b) {
-      return a.delta < b.delta;
-    });
+    std::sort(all.begin(), all.end(),
+              [](const Candidate& a, const Candidate& b) { return a.delta < b.delta; });
     for (const Candidate& x : all) {
       if (x.measurement >= 0 && f->best3.size() < 3) f->best3.push_back({x.measurement, x.delta});
     }
@@ -973,9 +981,10 @@ std::string TreeDot(const ConstraintGraph& graph, const MeasurementSet& set,
       constraints += (constraints.empty() ? "" : ", ") + graph.constraints[k].name;
     }
     const std::string point = ModelPointName(graph, t.component, t.feature);
-    dot += fmt::format("  subgraph level{} {{ rank=same;\n    info{} [shape=plaintext, label=\"level {}: {}{}\"];\n",
-                       l + 1, l + 1, l + 1, point,
-                       constraints.empty() ? "" : "\\nfused: " + constraints);
+    dot += fmt::format(
+        "  subgraph level{} {{ rank=same;\n    info{} [shape=plaintext, label=\"level {}: "
+        "{}{}\"];\n",
+        l + 1, l + 1, l + 1, point, constraints.empty() ? "" : "\\nfused: " + constraints);
     std::string chosen_node;
     bool chosen_listed = false;
     for (size_t i = 0; i < t.best.size(); ++i) {
@@ -991,9 +1000,9 @@ std::string TreeDot(const ConstraintGraph& graph, const MeasurementSet& set,
     }
     if (!chosen_listed) {
       chosen_node = fmt::format("n{}_c", l + 1);
-      dot += fmt::format("    {} [label=\"{}\", style=bold, penwidth=2];\n", chosen_node,
-                         t.chosen < 0 ? point + " occluded (null)"
-                                      : fmt::format("{} ← m{}", point, t.chosen));
+      dot += fmt::format(
+          "    {} [label=\"{}\", style=bold, penwidth=2];\n", chosen_node,
+          t.chosen < 0 ? point + " occluded (null)" : fmt::format("{} ← m{}", point, t.chosen));
     }
     dot += "  }\n";
     for (size_t i = 0; i < t.best.size(); ++i) {

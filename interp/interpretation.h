@@ -92,7 +92,7 @@ const char* StatusName(SearchStats::Status status);
 struct TraceLevel {
   std::vector<int> constraints;
   int component = -1, feature = -1;
-  int chosen = -1;  // measurement matched, -1 for the null branch
+  int chosen = -1;                           // measurement matched, -1 for the null branch
   std::vector<std::pair<int, double>> best;  // up to 3 (measurement, δ), best first
 };
 

@@ -283,8 +283,9 @@ FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart
         if (fused[k]) continue;
         const std::vector<int>& comps = components_of[k];
         const bool on_start =
-            rigid_start >= 0 ? std::any_of(comps.begin(), comps.end(), in_start)
-                             : comps.size() >= 2 && std::all_of(comps.begin(), comps.end(), in_start);
+            rigid_start >= 0
+                ? std::any_of(comps.begin(), comps.end(), in_start)
+                : comps.size() >= 2 && std::all_of(comps.begin(), comps.end(), in_start);
         if (!at_start || start.empty() || on_start) pick = k;
       }
       if (pick < 0) {
@@ -336,8 +337,7 @@ std::string FormatPlan(const ConstraintGraph& g, const FusionPlan& plan) {
   if (plan.seed_levels > 0) {
     std::string seed;
     for (int i = 0; i < plan.seed_levels; ++i) {
-      seed += (i ? ", " : "") +
-              ModelPointName(g, plan.levels[i].component, plan.levels[i].feature);
+      seed += (i ? ", " : "") + ModelPointName(g, plan.levels[i].component, plan.levels[i].feature);
     }
     out += fmt::format("seed: {} (a pose in closed form from their matches)\n", seed);
   }
