@@ -42,7 +42,7 @@ struct InterpretCommandOptions {
   std::string measurements;
   std::string output;  // empty: stdout
   std::string tree;    // Graphviz file of the explored tree; empty: none
-  double gate = 0.999;
+  double gate = 0.9999;
   long max_nodes = 20000;
 };
 int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std::ostream& err);

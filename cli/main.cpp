@@ -43,7 +43,7 @@ int main(int argc, char** argv) {
       ->required();
   interp_cmd->add_option("-o,--output", interp.output, "Result file (default: stdout)");
   interp_cmd->add_option("--tree", interp.tree, "Write the explored tree (Graphviz dot)");
-  interp_cmd->add_option("--gate", interp.gate, "Confidence of the chi-square gates (default 0.999)")
+  interp_cmd->add_option("--gate", interp.gate, "Confidence of the chi-square gates (default 0.9999)")
       ->check(CLI::Range(0.5, 0.999999999));
   interp_cmd->add_option("--max-nodes", interp.max_nodes, "Node budget (default 20000)")
       ->check(CLI::Range(1L, 100000000L));

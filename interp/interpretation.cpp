@@ -92,6 +92,11 @@ struct Frame {
   int nis_dof = 0;
   std::vector<std::pair<int, double>> best3;  // for the trace
   std::vector<int> own;  // the level's constraints on its component, fused after the match
+  // Single points taken as occluded (null), and the constraints on them not yet fused: fused
+  // where such a point is guessed to be, they would pin it wrongly along any freedom its
+  // matched neighbours leave (a joint's angle), so they wait until it can be placed.
+  std::vector<bool> null_component;
+  std::vector<int> deferred;
 };
 
 // A fusion plan and what the search needs of it.
@@ -540,6 +545,7 @@ class Interpreter {
     scale.slack = options_.solve.prior_slack_sigma;
     Frame root;
     root.state = MakePrior(g_.blocks, initial, scale);
+    root.null_component.assign(g_.components.size(), false);
     preassigned_.assign(levels_, -1);
     assignment_.assign(levels_, -1);
     if (seed) {
@@ -585,7 +591,11 @@ class Interpreter {
       child.matched = f.matched + real;
       child.nis_sum = f.nis_sum;
       child.nis_dof = f.nis_dof;
+      child.null_component = f.null_component;
+      child.deferred = f.deferred;
       assignment_[f.level] = c.measurement;
+      const int component = ctx_->points[f.level].component;
+      if (!real && !g_.components[component].rigid) child.null_component[component] = true;
       double delta = 0;  // the match's: its own NIS and that of the constraints placing it
       if (real && preassigned_[f.level] < 0) {
         const bool image = !set_.points[c.measurement].is_3d;
@@ -601,7 +611,7 @@ class Interpreter {
         child.nis_dof += image ? 2 : 3;
       }
       double own_nis = 0;
-      if (!FuseConstraints(f.own, &child, &own_nis)) {
+      if (!FuseConstraints(f.own, &child, &own_nis) || !FuseDeferred(&child)) {
         ++stats_.backtracks;
         continue;
       }
@@ -648,6 +658,11 @@ class Interpreter {
   bool FuseConstraints(const std::vector<int>& list, Frame* f, double* nis) const {
     for (int k : list) {
       if (!use_[k]) continue;
+      const std::vector<int>& comps = constraint_components_[k];
+      if (std::any_of(comps.begin(), comps.end(), [&](int c) { return f->null_component[c]; })) {
+        f->deferred.push_back(k);
+        continue;
+      }
       const Constraint& c = g_.constraints[k];
       const FusionSummary s = Fuse({c.residual, c.blocks, {}, c.name}, &f->state);
       if (s.status == FusionSummary::Status::kContradiction ||
@@ -665,6 +680,40 @@ class Interpreter {
       }
     }
     return true;
+  }
+
+  // Fuses the deferred constraints of each occluded point that can now be placed: re-centred
+  // on its matched neighbours (Recentre), every deferred constraint on it whose other
+  // components are matched. False when one of them is inconsistent.
+  bool FuseDeferred(Frame* f) const {
+    if (f->deferred.empty()) return true;
+    for (size_t n = 0; n < g_.components.size(); ++n) {
+      if (!f->null_component[n]) continue;
+      std::vector<int> ready;
+      for (int k : f->deferred) {
+        const std::vector<int>& comps = constraint_components_[k];
+        if (std::find(comps.begin(), comps.end(), static_cast<int>(n)) == comps.end()) continue;
+        const bool others_matched = std::all_of(comps.begin(), comps.end(), [&](int c) {
+          return c == static_cast<int>(n) || IsMatched(*f, c);
+        });
+        if (others_matched) ready.push_back(k);
+      }
+      if (ready.empty() || !Recentre(f, static_cast<int>(n))) continue;
+      f->null_component[n] = false;  // placed: its constraints are fused from now on
+      for (int k : ready) f->deferred.erase(std::find(f->deferred.begin(), f->deferred.end(), k));
+      double nis = 0;
+      if (!FuseConstraints(ready, f, &nis)) return false;
+    }
+    return true;
+  }
+
+  // Whether component c has a match on f's branch (a seed's or a level's).
+  bool IsMatched(const Frame& f, int c) const {
+    for (int l = 0; l < levels_; ++l) {
+      if (ctx_->points[l].component != c) continue;
+      if (preassigned_[l] >= 0 || (l < f.level && assignment_[l] >= 0)) return true;
+    }
+    return false;
   }
 
   // Sets up f for its level: fuses the level's constraints that do not touch its component,
@@ -692,20 +741,17 @@ class Interpreter {
   // the vague prior), it is placed with the nominal geometry relative to its matched
   // neighbours: the rigid motion of a matched rigid neighbour, or the one that best maps three
   // or more matched neighbouring points onto their estimates.
-  void Recentre(Frame* f, int component) const {
+  bool Recentre(Frame* f, int component) const {
     GaussianState& state = f->state;
     const int block = g_.components[component].block;
     std::vector<int> group;
     if (state.groups.num_blocks() == static_cast<int>(g_.blocks.size())) {
       state.groups.Support(std::vector<int>{block}, &group);
-      if (group.size() > 1) return;
+      if (group.size() > 1) return false;
     }
     std::vector<bool> matched(g_.components.size(), false);
-    for (int l = 0; l < f->level; ++l) {
-      if (assignment_[l] >= 0 || preassigned_[l] >= 0) matched[ctx_->points[l].component] = true;
-    }
-    for (int l = 0; l < levels_; ++l) {
-      if (preassigned_[l] >= 0) matched[ctx_->points[l].component] = true;
+    for (size_t c = 0; c < g_.components.size(); ++c) {
+      matched[c] = IsMatched(*f, static_cast<int>(c));
     }
     std::vector<Eigen::Vector3d> from, to;
     std::optional<Rigid3d> motion;
@@ -728,7 +774,7 @@ class Interpreter {
     }
     if (!motion) {
       Rigid3d fit;
-      if (!AbsoluteOrientation(from, to, &fit)) return;
+      if (!AbsoluteOrientation(from, to, &fit)) return false;
       motion = fit;
     }
     const Block& b = g_.blocks[block];
@@ -737,6 +783,7 @@ class Interpreter {
     } else {
       state.mean.points[b.index] = *motion * g_.nominal.points[b.index];
     }
+    return true;
   }
 
   // The level's candidates, best first, and the null branch:
