@@ -7,6 +7,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <map>
 #include <numeric>
 #include <unordered_map>
 
@@ -170,8 +171,24 @@ class Interpreter {
     extent_ = ModelExtent(g);
     Eigen::AlignedBox3d box3;
     Eigen::AlignedBox2d box2;
+    // A measurement repeated exactly (same point, same covariance) is one observation: only its
+    // first copy takes part, so copies do not double the branching of every level.
+    duplicate_.assign(set.points.size(), false);
+    std::map<std::vector<double>, int> seen;
     for (size_t i = 0; i < set.points.size(); ++i) {
       const MeasuredPoint& m = set.points[i];
+      std::vector<double> key = {m.is_3d ? 1.0 : 0.0};
+      if (m.is_3d) {
+        key.insert(key.end(), m.xyz.data(), m.xyz.data() + 3);
+        key.insert(key.end(), m.cov3.data(), m.cov3.data() + 9);
+      } else {
+        key.insert(key.end(), m.uv.data(), m.uv.data() + 2);
+        key.insert(key.end(), m.cov2.data(), m.cov2.data() + 4);
+      }
+      if (!seen.emplace(std::move(key), static_cast<int>(i)).second) {
+        duplicate_[i] = true;
+        continue;
+      }
       if (m.is_3d) {
         box3.extend(m.xyz);
         index3_.push_back(static_cast<int>(i));
@@ -801,7 +818,7 @@ class Interpreter {
       f->best3 = {{preassigned_[level], 0}};
       return;
     }
-    std::vector<bool> used(set_.points.size(), false);
+    std::vector<bool> used = duplicate_;
     for (int l = 0; l < levels_; ++l) {
       if (preassigned_[l] >= 0) used[preassigned_[l]] = true;
       if (l < level && assignment_[l] >= 0) used[assignment_[l]] = true;
@@ -958,7 +975,8 @@ class Interpreter {
   int best_context_ = 0;
   int levels_ = 0;
   bool image_ = false;                // image measurements only
-  std::vector<int> index3_, index2_;  // 3D and 2D measurements
+  std::vector<int> index3_, index2_;  // 3D and 2D measurements, first copies only
+  std::vector<bool> duplicate_;       // per measurement: a repeat of an earlier one
   double extent_ = 1;
   double clutter3_ = 0, clutter2_ = 0;
   double gate3_ = 0, gate2_ = 0;
