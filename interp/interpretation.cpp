@@ -88,6 +88,7 @@ struct Frame {
   std::vector<Candidate> candidates;
   size_t next = 0;
   int matched = 0;
+  int nulls = 0;  // null branches taken above (seeded levels count as matched)
   double delta_sum = 0;
   double nis_sum = 0;  // every δ and constraint NIS on the branch (joint compatibility)
   int nis_dof = 0;
@@ -112,6 +113,7 @@ struct Seed {
   int context = -1;                             // the plan it starts (Interpreter::contexts_)
   std::vector<std::pair<int, int>> assignment;  // (plan level, measurement)
   Rigid3d world_from_nominal;
+  int deepest = 0;      // the deepest level the search below it has reached
   int support = 0;      // model points with a measurement near their seeded position
   double residual = 0;  // of the seed's own geometry, normalised
 };
@@ -227,15 +229,29 @@ class Interpreter {
   void Run() {
     std::vector<Seed> seeds = Seeds();
     stats_.seeds = static_cast<int>(seeds.size());
-    if (seeds.empty()) {
-      Search(nullptr);
-      return;
-    }
-    for (const Seed& seed : seeds) {
-      ++stats_.seeds_tried;
-      Search(&seed);
-      if (stats_.status == SearchStats::Status::kBudget) return;
-      if (2 * best_matched_ >= levels_) return;
+    // Iterative deepening on occlusions: first every level must match, then one null branch is
+    // allowed, then two, ... The first complete interpretation found therefore has the most
+    // matches there are; and a wrong early choice, which the levels below it can only answer
+    // with nulls, is abandoned as soon as it needs more of them than allowed, instead of being
+    // searched to the bottom.
+    for (int nulls = 0; nulls <= levels_; ++nulls) {
+      max_nulls_ = nulls;
+      if (seeds.empty()) {
+        Search(nullptr);
+      } else {
+        for (Seed& seed : seeds) {
+          if (nulls == 0) ++stats_.seeds_tried;
+          deepest_ = 0;
+          Search(&seed);
+          seed.deepest = std::max(seed.deepest, deepest_);
+          if (stats_.status == SearchStats::Status::kBudget || best_matched_ >= 0) break;
+        }
+        // The next round first searches below the seeds that got deepest in this one: a wrong
+        // seed runs out of allowed nulls within a few levels, the right one near the bottom.
+        std::stable_sort(seeds.begin(), seeds.end(),
+                         [](const Seed& a, const Seed& b) { return a.deepest > b.deepest; });
+      }
+      if (stats_.status == SearchStats::Status::kBudget || best_matched_ >= 0) return;
     }
   }
 
@@ -591,6 +607,7 @@ class Interpreter {
       }
       const Candidate c = f.candidates[f.next++];
       const int real = c.measurement >= 0 ? 1 : 0;
+      if (!real && f.nulls >= max_nulls_) continue;
       // Can this branch still beat the best: more matches, or as many with less total δ?
       const int can_match = f.matched + real + (levels_ - f.level - 1);
       if (best_matched_ >= 0 && (can_match < best_matched_ ||
@@ -606,6 +623,7 @@ class Interpreter {
       child.level = f.level + 1;
       child.state = f.state;
       child.matched = f.matched + real;
+      child.nulls = f.nulls + (real ? 0 : 1);
       child.nis_sum = f.nis_sum;
       child.nis_dof = f.nis_dof;
       child.null_component = f.null_component;
@@ -656,6 +674,7 @@ class Interpreter {
         ++stats_.backtracks;
         continue;
       }
+      deepest_ = std::max(deepest_, child.level);
       stack.push_back(std::move(child));
     }
   }
@@ -977,6 +996,8 @@ class Interpreter {
   bool image_ = false;                // image measurements only
   std::vector<int> index3_, index2_;  // 3D and 2D measurements, first copies only
   std::vector<bool> duplicate_;       // per measurement: a repeat of an earlier one
+  int max_nulls_ = 0;                 // of the current round of iterative deepening
+  int deepest_ = 0;                   // the deepest level the current search has reached
   double extent_ = 1;
   double clutter3_ = 0, clutter2_ = 0;
   double gate3_ = 0, gate2_ = 0;

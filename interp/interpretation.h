@@ -15,10 +15,15 @@
 // depends on disagrees with them: its innovation NIS exceeds the chi-square quantile for its
 // rows.
 //
-// The search is depth first, children best first, and keeps the best complete interpretation:
-// most matched points, then least total δ. After the first complete one it goes on only where
-// a branch can still beat it (matched so far + levels left), until the tree is exhausted or
-// the node budget ends it (status kBudget).
+// The search is depth first, children best first, by iterative deepening on occlusions: a
+// round allows at most k null branches, k = 0, 1, 2, ..., and the first round with a complete
+// interpretation ends the search, so that interpretation has the most matches there are. Within
+// that round the search goes on only where a branch can still beat the best found (as many
+// matches with less total δ), until the tree is exhausted or the node budget ends it (status
+// kBudget). Deepening matters: a wrong early choice can only be followed by nulls below it, and
+// a round abandons it as soon as it needs more than k of them, where a plain depth-first search
+// would explore it to the bottom (on lamps with 10 % occlusion and twice as much clutter it
+// raised the share of fully right interpretations from 19 to 33 in 40).
 //
 // Seeds. Under the vague prior a pose is unknown, so gating the first points of the tree means
 // nothing. The plan starts with a seed set from which a pose follows in closed form: a rigid
@@ -28,8 +33,8 @@
 // projects within the gate (2D). Each is scored by how many model points, placed rigidly with
 // the nominal geometry at the seed's pose, find a measurement near them (within 5 % of the
 // model's extent, or 3 % of the image diagonal), and the tree is searched below the best
-// first; the whole model starts at the seed's pose (the filter then linearises near the
-// truth).
+// first (in later rounds, below those whose search got deepest first); the whole model starts
+// at the seed's pose (the filter then linearises near the truth).
 //
 // Beyond the paper (InterpretOptions, measured in docs/benchmarks.md):
 //  - joint compatibility (Neira & Tardós 2001): a branch is also dropped when its total
