@@ -199,7 +199,7 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
                         {"matched", in.matched},
                         {"total_delta", in.total_delta}};
     const std::string text = result.dump(2) + "\n";
-    const std::string dot = options.tree.empty() ? "" : TreeDot(graph, set, in);
+    const std::string dot = options.tree.empty() ? "" : TreeDot(graph, in);
     if (!options.tree.empty()) WriteFileAtomically(options.tree, dot);
     if (options.output.empty()) {
       out << text;
@@ -207,9 +207,10 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
       WriteFileAtomically(options.output, text);
     }
     if (in.stats.status == SearchStats::Status::kBudget) {
-      err << fmt::format("cfuse: the node budget ({}) ended the search: the best interpretation "
-                         "found so far is written\n",
-                         options.max_nodes);
+      err << fmt::format(
+          "cfuse: the node budget ({}) ended the search: the best interpretation "
+          "found so far is written\n",
+          options.max_nodes);
     }
     return 0;
   });

@@ -211,8 +211,8 @@ class Interpreter {
       }
       clutter2_ = index2_.size() / area;
     }
-    gate3_ = ChiSquareQuantile(options.gate_confidence, 3);
-    gate2_ = ChiSquareQuantile(options.gate_confidence, 2);
+    gate3_ = Gate(3);
+    gate2_ = Gate(2);
     for (const Constraint& c : g.constraints) {
       constraint_components_.push_back(ConstraintComponents(g, c));
     }
@@ -276,7 +276,7 @@ class Interpreter {
           rows += g_.constraints[k].residual->dimension();
         }
       }
-      c.level_gate.push_back(ChiSquareQuantile(options_.gate_confidence, rows));
+      c.level_gate.push_back(Gate(rows));
     }
     return c;
   }
@@ -348,48 +348,19 @@ class Interpreter {
       }
     }
     if (!image) {
-      for (const std::vector<int>& t : RigidTriangles()) {
+      for (const std::array<int, 3>& t : SeedTriangles()) {
         sets.push_back({{t[0], -1}, {t[1], -1}, {t[2], -1}});
       }
     }
     return sets;
   }
 
-  // Triangles of single points pairwise held by `distance == nominal` (or one `rigid`), best
-  // smallest side first, each point in at most two of the kMaxSeedSets kept.
-  std::vector<std::vector<int>> RigidTriangles() const {
-    const int n = static_cast<int>(g_.components.size());
-    std::vector<std::vector<bool>> rigid(n, std::vector<bool>(n, false));
-    std::vector<std::vector<int>> adjacent(n);
-    for (size_t k = 0; k < g_.constraints.size(); ++k) {
-      if (!use_[k]) continue;
-      const Constraint& c = g_.constraints[k];
-      const std::vector<int> comps = ConstraintComponents(g_, c);
-      if (!((c.kind == "distance ==" && comps.size() == 2) || c.kind == "rigid")) continue;
-      for (int a : comps)
-        for (int b : comps)
-          if (a != b && !g_.components[a].rigid && !g_.components[b].rigid && !rigid[a][b]) {
-            rigid[a][b] = true;
-            adjacent[a].push_back(b);
-          }
-    }
-    auto side = [&](int a, int b) {
-      return (NominalWorld(g_, {a, -1}) - NominalWorld(g_, {b, -1})).norm();
-    };
-    std::vector<std::pair<double, std::vector<int>>> all;
-    for (int a = 0; a < n; ++a)
-      for (int b : adjacent[a]) {
-        if (b <= a) continue;
-        for (int c : adjacent[b]) {
-          if (c <= b || !rigid[a][c]) continue;
-          all.push_back({-std::min({side(a, b), side(b, c), side(a, c)}), {a, b, c}});
-          if (all.size() > 100000) break;
-        }
-      }
-    std::sort(all.begin(), all.end());
-    std::vector<std::vector<int>> out;
-    std::vector<int> uses(n, 0);
-    for (const auto& [neg_side, t] : all) {
+  // Up to kMaxSeedSets rigid triangles (schedule.h), best-shaped first, each point in at most
+  // two of them, so that one occluded point does not take every seed set with it.
+  std::vector<std::array<int, 3>> SeedTriangles() const {
+    std::vector<std::array<int, 3>> out;
+    std::vector<int> uses(g_.components.size(), 0);
+    for (const std::array<int, 3>& t : RigidTriangles(g_, &use_)) {
       if (static_cast<int>(out.size()) == kMaxSeedSets) break;
       if (uses[t[0]] >= 2 || uses[t[1]] >= 2 || uses[t[2]] >= 2) continue;
       for (int x : t) ++uses[x];
@@ -401,7 +372,7 @@ class Interpreter {
   // Hypotheses for every seed set, most supported first.
   std::vector<Seed> Seeds() {
     std::vector<Seed> seeds;
-    const bool image = index3_.empty() && !index2_.empty();
+    const bool image = image_;
     if (image && (!set_.camera || set_.camera->model != Camera::Model::kPinhole ||
                   !options_.poses_from_three_projections)) {
       return seeds;  // no P3P solver for this camera: the unseeded search
@@ -428,7 +399,7 @@ class Interpreter {
   // 3D: measurement triples whose pairwise distances match the seed's within the gate.
   void PointSeeds(const std::vector<ModelPointRef>& s, int context,
                   std::vector<Seed>* seeds) const {
-    const double k = std::sqrt(ChiSquareQuantile(options_.gate_confidence, 1));
+    const double k = std::sqrt(Gate(1));
     std::array<Eigen::Vector3d, 3> model;
     for (int i = 0; i < 3; ++i) model[i] = NominalWorld(g_, s[i]);
     const double d01 = (model[0] - model[1]).norm(), d12 = (model[1] - model[2]).norm(),
@@ -654,7 +625,7 @@ class Interpreter {
       // to move (both vanish for a perfect match); the null branch scores 0.
       if (real) delta += own_nis;
       child.delta_sum = f.delta_sum + delta;
-      if (!JointlyCompatible(child) || (real && delta > gate_for_dof(f.level))) {
+      if (!JointlyCompatible(child) || (real && delta > ctx_->level_gate[f.level])) {
         ++stats_.backtracks;
         continue;
       }
@@ -679,13 +650,17 @@ class Interpreter {
     }
   }
 
-  // The gate on a match's total δ: chi-square for the measurement's rows and the rows of the
-  // constraints placing it.
-  double gate_for_dof(int level) const { return ctx_->level_gate[level]; }
+  // The chi-square quantile at the gate confidence for `dof` degrees of freedom, computed once
+  // per dof: the tests below ask for it at every node.
+  double Gate(int dof) const {
+    if (static_cast<int>(gates_.size()) <= dof) gates_.resize(dof + 1, -1);
+    if (gates_[dof] < 0) gates_[dof] = ChiSquareQuantile(options_.gate_confidence, dof);
+    return gates_[dof];
+  }
 
   bool JointlyCompatible(const Frame& f) const {
     if (!options_.joint_compatibility || f.nis_dof == 0) return true;
-    return f.nis_sum <= ChiSquareQuantile(options_.gate_confidence, f.nis_dof);
+    return f.nis_sum <= Gate(f.nis_dof);
   }
 
   // Fuses `list` into f's state; false when a constraint contradicts what was fused before it,
@@ -707,7 +682,7 @@ class Interpreter {
         return false;
       }
       if (s.rows_fused > 0) {
-        if (s.innovation_nis > ChiSquareQuantile(options_.gate_confidence, s.rows_fused)) {
+        if (s.innovation_nis > Gate(s.rows_fused)) {
           return false;
         }
         f->nis_sum += s.innovation_nis;
@@ -919,6 +894,32 @@ class Interpreter {
     const ModelPointRef point = ctx_->points[f.level];
     if (g_.components[point.component].rigid || f.own.empty()) return out;
     const int point_block = g_.components[point.component].block;
+    // Per own constraint, what does not depend on the candidate: the Jacobian columns of the
+    // point and of the other blocks, and the other blocks' covariance.
+    struct Own {
+      const Constraint* constraint;
+      std::vector<int> point_columns, other_columns;
+      Eigen::MatrixXd others;  // covariance of the other blocks' tangent coordinates
+    };
+    std::vector<Own> own;
+    for (int k : f.own) {
+      Own o{&g_.constraints[k], {}, {}, {}};
+      std::vector<int> index;
+      int column = 0;
+      for (int b : o.constraint->blocks) {
+        const Block& block = g_.blocks[b];
+        for (int i = 0; i < TangentDim(block.kind); ++i, ++column) {
+          if (b == point_block) {
+            o.point_columns.push_back(column);
+          } else {
+            o.other_columns.push_back(column);
+            index.push_back(block.tangent_offset + i);
+          }
+        }
+      }
+      o.others = f.state.covariance(index, index);
+      own.push_back(std::move(o));
+    }
     Values moved = f.state.mean;
     Eigen::Vector3d& x = moved.points[g_.blocks[point_block].index];
     Eigen::VectorXd r;
@@ -930,32 +931,15 @@ class Interpreter {
       // from the other blocks' covariance and the measurement's, through the Jacobian there.
       double nis = 0;
       bool inside = true;
-      for (int k : f.own) {
-        const Constraint& c = g_.constraints[k];
-        EvaluateResidual(*c.residual, g_.blocks, c.blocks, moved, &r, &H);
-        Eigen::MatrixXd S = Eigen::MatrixXd::Zero(r.size(), r.size());
-        std::vector<int> index;
-        std::vector<int> columns;
-        int column = 0;
-        for (int b : c.blocks) {
-          const Block& block = g_.blocks[b];
-          const int dim = TangentDim(block.kind);
-          if (b == point_block) {
-            const Eigen::MatrixXd Hp = H.middleCols(column, dim);
-            S += Hp * set_.points[m].cov3 * Hp.transpose();
-          } else {
-            for (int i = 0; i < dim; ++i) {
-              index.push_back(block.tangent_offset + i);
-              columns.push_back(column + i);
-            }
-          }
-          column += dim;
-        }
-        const Eigen::MatrixXd Ho = H(Eigen::all, columns);
-        S += Ho * f.state.covariance(index, index) * Ho.transpose();
+      for (const Own& o : own) {
+        EvaluateResidual(*o.constraint->residual, g_.blocks, o.constraint->blocks, moved, &r, &H);
+        const Eigen::MatrixXd Hp = H(Eigen::all, o.point_columns);
+        const Eigen::MatrixXd Ho = H(Eigen::all, o.other_columns);
+        const Eigen::MatrixXd S =
+            Hp * set_.points[m].cov3 * Hp.transpose() + Ho * o.others * Ho.transpose();
         const Eigen::LDLT<Eigen::MatrixXd> ldlt(S);
         const double e = r.dot(ldlt.solve(r));
-        if (!std::isfinite(e) || e > ChiSquareQuantile(options_.gate_confidence, r.size())) {
+        if (!std::isfinite(e) || e > Gate(static_cast<int>(r.size()))) {
           inside = false;
           break;
         }
@@ -993,11 +977,12 @@ class Interpreter {
   const Context* ctx_ = nullptr;  // of the search under way
   int best_context_ = 0;
   int levels_ = 0;
-  bool image_ = false;                // image measurements only
-  std::vector<int> index3_, index2_;  // 3D and 2D measurements, first copies only
-  std::vector<bool> duplicate_;       // per measurement: a repeat of an earlier one
-  int max_nulls_ = 0;                 // of the current round of iterative deepening
-  int deepest_ = 0;                   // the deepest level the current search has reached
+  bool image_ = false;                 // image measurements only
+  std::vector<int> index3_, index2_;   // 3D and 2D measurements, first copies only
+  std::vector<bool> duplicate_;        // per measurement: a repeat of an earlier one
+  int max_nulls_ = 0;                  // of the current round of iterative deepening
+  mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
+  int deepest_ = 0;                    // the deepest level the current search has reached
   double extent_ = 1;
   double clutter3_ = 0, clutter2_ = 0;
   double gate3_ = 0, gate2_ = 0;
@@ -1051,9 +1036,7 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
   return out;
 }
 
-std::string TreeDot(const ConstraintGraph& graph, const MeasurementSet& set,
-                    const Interpretation& in) {
-  (void)set;
+std::string TreeDot(const ConstraintGraph& graph, const Interpretation& in) {
   std::string dot = fmt::format(
       "digraph interpretation {{\n  label=\"interpretation tree of '{}': per level the 3 best "
       "candidates (δ), the chosen one bold; constraints fused at each level\";\n  rankdir=TB;\n"

@@ -69,7 +69,7 @@ struct InterpretOptions {
   // Of the chi-square gates (matches and constraints). An interpretation of the lamp runs about
   // 80 such tests; at 0.999 one true match in ten trials failed one of them.
   double gate_confidence = 0.9999;
-  long max_nodes = 20000;          // tree nodes (tentative fusions, null branches included)
+  long max_nodes = 20000;  // tree nodes (tentative fusions, null branches included)
   bool joint_compatibility = true;
   bool probability_order = true;
   // Off: constraints between components are ignored and each component is interpreted alone
@@ -120,7 +120,6 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
                          const InterpretOptions& options = {});
 
 // The explored tree in Graphviz dot, like the paper's Figure 3.
-std::string TreeDot(const ConstraintGraph& graph, const MeasurementSet& set,
-                    const Interpretation& interpretation);
+std::string TreeDot(const ConstraintGraph& graph, const Interpretation& interpretation);
 
 }  // namespace cfuse

@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <numeric>
 #include <set>
 
@@ -17,46 +18,6 @@ int LargestRigidComponent(const ConstraintGraph& g) {
     if (!comp.rigid || comp.points.size() < 3) continue;
     if (best < 0 || comp.points.size() > g.components[best].points.size()) {
       best = static_cast<int>(c);
-    }
-  }
-  return best;
-}
-
-// The best-shaped triangle of single points held rigid by pairwise `distance == nominal` or a
-// common `rigid(...)`: largest smallest side, then model order. Empty if none.
-std::vector<int> RigidTriangle(const ConstraintGraph& g,
-                               const std::vector<std::vector<int>>& components_of) {
-  const int n = static_cast<int>(g.components.size());
-  std::vector<std::set<int>> rigid_with(n);
-  for (size_t k = 0; k < g.constraints.size(); ++k) {
-    const Constraint& c = g.constraints[k];
-    const std::vector<int>& comps = components_of[k];
-    const bool distance = c.kind == "distance ==" && comps.size() == 2;
-    if (!distance && c.kind != "rigid") continue;
-    for (int a : comps) {
-      for (int b : comps) {
-        if (a != b && !g.components[a].rigid && !g.components[b].rigid) rigid_with[a].insert(b);
-      }
-    }
-  }
-  auto side = [&](int a, int b) {
-    return (g.nominal.points[g.blocks[g.components[a].block].index] -
-            g.nominal.points[g.blocks[g.components[b].block].index])
-        .norm();
-  };
-  std::vector<int> best;
-  double best_side = -1;
-  for (int a = 0; a < n; ++a) {
-    for (int b : rigid_with[a]) {
-      if (b <= a) continue;
-      for (int c : rigid_with[b]) {
-        if (c <= b || !rigid_with[a].count(c)) continue;
-        const double smallest = std::min({side(a, b), side(b, c), side(a, c)});
-        if (smallest > best_side) {
-          best_side = smallest;
-          best = {a, b, c};
-        }
-      }
     }
   }
   return best;
@@ -109,6 +70,43 @@ std::vector<int> SeedFirstFeatures(const Component& comp, bool image_data, int* 
 
 }  // namespace
 
+std::vector<std::array<int, 3>> RigidTriangles(const ConstraintGraph& g,
+                                               const std::vector<bool>* use) {
+  const int n = static_cast<int>(g.components.size());
+  std::vector<std::set<int>> rigid_with(n);
+  for (size_t k = 0; k < g.constraints.size(); ++k) {
+    const Constraint& c = g.constraints[k];
+    if (use && !(*use)[k]) continue;
+    const std::vector<int> comps = ConstraintComponents(g, c);
+    const bool distance = c.kind == "distance ==" && comps.size() == 2;
+    if (!distance && c.kind != "rigid") continue;
+    for (int a : comps) {
+      for (int b : comps) {
+        if (a != b && !g.components[a].rigid && !g.components[b].rigid) rigid_with[a].insert(b);
+      }
+    }
+  }
+  auto side = [&](int a, int b) {
+    return (g.nominal.points[g.blocks[g.components[a].block].index] -
+            g.nominal.points[g.blocks[g.components[b].block].index])
+        .norm();
+  };
+  std::vector<std::pair<double, std::array<int, 3>>> all;  // (-smallest side, triangle)
+  for (int a = 0; a < n && all.size() < kMaxRigidTriangles; ++a) {
+    for (int b : rigid_with[a]) {
+      if (b <= a) continue;
+      for (int c : rigid_with[b]) {
+        if (c <= b || !rigid_with[a].count(c)) continue;
+        all.push_back({-std::min({side(a, b), side(b, c), side(a, c)}), {a, b, c}});
+      }
+    }
+  }
+  std::sort(all.begin(), all.end());
+  std::vector<std::array<int, 3>> out;
+  for (const auto& [neg_side, t] : all) out.push_back(t);
+  return out;
+}
+
 std::vector<int> ConstraintComponents(const ConstraintGraph& graph, const Constraint& c) {
   std::vector<int> out;
   for (int b : c.blocks) {
@@ -149,7 +147,11 @@ FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart
     if (start.size() == 1 && g.components[start[0]].rigid) rigid_start = start[0];
   } else {
     rigid_start = LargestRigidComponent(g);
-    start = rigid_start >= 0 ? std::vector<int>{rigid_start} : RigidTriangle(g, components_of);
+    if (rigid_start >= 0) {
+      start = {rigid_start};
+    } else if (const auto triangles = RigidTriangles(g); !triangles.empty()) {
+      start.assign(triangles[0].begin(), triangles[0].end());
+    }
   }
   auto in_start = [&](int c) { return std::find(start.begin(), start.end(), c) != start.end(); };
 

@@ -26,6 +26,7 @@
 // set from which a pose can be computed in closed form.
 #pragma once
 
+#include <array>
 #include <string>
 #include <vector>
 
@@ -60,6 +61,13 @@ struct PlanStart {
 // The plan for 3D data (seed sets of 3 points) or 2D data (4 points for a rigid component).
 FusionPlan PlanFusion(const ConstraintGraph& graph, bool image_data = false,
                       const PlanStart* start = nullptr);
+
+// Triangles of single-point components pairwise held by `distance == nominal` or a common
+// `rigid(...)` (constraint k ignored where (*use)[k] is false), best-shaped first: largest
+// smallest side, then model order. The first kMaxRigidTriangles found are ranked.
+inline constexpr size_t kMaxRigidTriangles = 100000;
+std::vector<std::array<int, 3>> RigidTriangles(const ConstraintGraph& graph,
+                                               const std::vector<bool>* use = nullptr);
 
 // The components a constraint touches (its blocks that are components', not slacks).
 std::vector<int> ConstraintComponents(const ConstraintGraph& graph, const Constraint& c);

@@ -46,12 +46,12 @@ BlockState<double> Shifted(const Block& b, const BlockState<double>& base, const
   return s;
 }
 
-// Sets `x` to `value` with a derivative vector of n entries: the unit vector `seed` if
-// 0 <= seed < n, else zero. Written in place: building a Jet and copying it costs a memmove.
-void SetSeeded(double value, int n, int seed, Jet* x) {
+// Sets `x` to `value` with the unit derivative vector `seed`, or zero derivatives for
+// seed < 0. Written in place rather than built and copied.
+void SetSeeded(double value, int seed, Jet* x) {
   x->value() = value;
   x->derivatives().setZero();
-  if (seed >= 0 && seed < n) x->derivatives()[seed] = 1;
+  if (seed >= 0) x->derivatives()[seed] = 1;
 }
 
 // The state (base ⊞ shift) ⊞ ε in Jets, where tangent coordinate i of the block carries the
@@ -72,21 +72,20 @@ void Perturbed(const Block& b, const BlockState<double>& base, const double* shi
       // R is unused by point and slack blocks (residual.h), so it is not written: copying nine
       // Jets per block cost more than the residual itself.
       const int dim = TangentDim(b.kind);
-      for (int i = 0; i < 3; ++i)
-        SetSeeded(s.t[i], i < dim ? n : 0, i < dim ? seed(i) : -1, &out->t[i]);
+      for (int i = 0; i < 3; ++i) SetSeeded(s.t[i], i < dim ? seed(i) : -1, &out->t[i]);
       break;
     }
     case BlockKind::kPose: {
       const Eigen::Matrix3d Jr = shift ? RightJacobianSO3(Eigen::Map<const Eigen::Vector3d>(shift))
                                        : Eigen::Matrix3d::Identity();
-      for (int i = 0; i < 9; ++i) SetSeeded(s.R(i), n, -1, &out->R(i));
+      for (int i = 0; i < 9; ++i) SetSeeded(s.R(i), -1, &out->R(i));
       for (int k = 0; k < 3; ++k) {
         const int d = seed(k);
         if (d < 0) continue;
         const Eigen::Matrix3d dR = s.R * Hat<double>(Jr.col(k));
         for (int i = 0; i < 9; ++i) out->R(i).derivatives()[d] = dR(i);
       }
-      for (int i = 0; i < 3; ++i) SetSeeded(s.t[i], n, seed(3 + i), &out->t[i]);
+      for (int i = 0; i < 3; ++i) SetSeeded(s.t[i], seed(3 + i), &out->t[i]);
       break;
     }
   }

@@ -67,7 +67,7 @@ TEST_CASE("interpret: the result is estimated from the matches and names the sea
   CHECK(in.stats.seeds_tried >= 1);
   REQUIRE(in.trace.size() == 23);
   // The dot file names every level and renders (tests/cli checks with `dot`).
-  const std::string dot = TreeDot(g, sim.measurements, in);
+  const std::string dot = TreeDot(g, in);
   CHECK(dot.find("level 23:") != std::string::npos);
 }
 
