@@ -17,9 +17,10 @@
 #include "dsl/model_loader.h"
 #include "interp/interpretation.h"
 #include "interp/simulate.h"
+#include "interp/solve.h"
 
 int main(int argc, char** argv) {
-  if (argc != 5) {
+  if (argc != 5 && argc != 6) {
     fmt::print(stderr, "usage: interpret_sweep MODEL CLUTTER OCCLUSION TRIALS\n");
     return 2;
   }
@@ -30,12 +31,25 @@ int main(int argc, char** argv) {
   int all_right = 0, right = 0, real = 0, levels = 0;
   double total_ms = 0;
   std::vector<long> nodes;
-  for (int t = 0; t < trials; ++t) {
+  const int first = getenv("FIRST") ? atoi(getenv("FIRST")) : 0;
+  for (int t = first; t < first + trials; ++t) {
     SimulateOptions so;
     so.seed = 100 + t;
     so.clutter = clutter;
     so.occlusion = occlusion;
-    const Simulation sim = Simulate(g, so);
+
+    Simulation sim = Simulate(g, so);
+    if (getenv("DBG")) {
+      for (size_t m = 0; m < sim.matches.size(); ++m)
+        sim.measurements.points[m].label = sim.matches[m];
+    }
+    if (getenv("DBGR")) {
+      MeasurementSet labelled = sim.measurements;
+      for (size_t m = 0; m < sim.matches.size(); ++m) labelled.points[m].label = sim.matches[m];
+      const Solution sol = Solve(g, labelled);
+      fmt::print(stderr, "truth solve: passes {} converged {} maxres {}\n", sol.summary.passes,
+                 sol.summary.converged, sol.summary.max_constraint_residual);
+    }
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(g, sim.measurements);
     total_ms +=
@@ -49,6 +63,18 @@ int main(int argc, char** argv) {
       }
     }
     all_right += all ? 1 : 0;
+    if (argc == 6) {
+      fmt::print("trial {}: {} nodes {} expanded, seeds {} tried {}, matched {}, {}\n", t,
+                 in.stats.nodes, in.stats.expanded, in.stats.seeds, in.stats.seeds_tried,
+                 in.matched, all ? "right" : "WRONG");
+      if (!all) {
+        for (size_t m = 0; m < sim.matches.size(); ++m) {
+          if (in.matches[m] != sim.matches[m]) {
+            fmt::print("   m{}: truth '{}' found '{}'\n", m, sim.matches[m], in.matches[m]);
+          }
+        }
+      }
+    }
     nodes.push_back(in.stats.nodes);
     levels = in.stats.levels;
   }

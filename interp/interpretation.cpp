@@ -5,6 +5,7 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -14,6 +15,7 @@
 #include "interp/closed_form_pose.h"
 #include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
+#include "kernel/joint_factor.h"
 #include "kernel/measurements/image_point.h"
 #include "kernel/measurements/point3.h"
 
@@ -36,6 +38,11 @@ constexpr double kTwoPi = 6.283185307179586;
 constexpr int kMaxSeedSets = 6;
 // P3P solutions computed in all, for image data; beyond it seed generation stops.
 constexpr long kMaxP3pCalls = 200000;
+constexpr int kSupportMargin = 2;
+// Of a point's unit constraint gradients, the smallest singular value that determines it.
+constexpr double kDetermined = 0.1;
+constexpr int kPlaceIterations = 30;
+constexpr double kConfident = 0.99;
 
 // A model point of the plan: a level's component and feature.
 struct ModelPointRef {
@@ -79,6 +86,7 @@ struct Candidate {
   double delta = 0;
   double probability = 0;
   bool informative = false;  // its gate holds less than one clutter point on average
+  double log_ratio = 0;      // log(p / q): how much likelier the point than clutter
 };
 
 // A node of the depth-first search whose children are being tried.
@@ -88,7 +96,9 @@ struct Frame {
   std::vector<Candidate> candidates;
   size_t next = 0;
   int matched = 0;
-  int nulls = 0;  // null branches taken above (seeded levels count as matched)
+  int nulls = 0;                  // null branches taken above by choice (not forced)
+  int real_passed = 0;            // of this frame's real candidates, those that passed their tests
+  bool confident_passed = false;  // one of them with p/(p+q) >= kConfident
   double delta_sum = 0;
   double nis_sum = 0;  // every δ and constraint NIS on the branch (joint compatibility)
   int nis_dof = 0;
@@ -217,41 +227,89 @@ class Interpreter {
       constraint_components_.push_back(ConstraintComponents(g, c));
     }
     image_ = index3_.empty() && !index2_.empty();
+    for (const Block& b : g.blocks) block_kinds_.push_back(b.kind);
     contexts_.push_back(MakeContext(PlanFusion(g, !index2_.empty())));
     levels_ = static_cast<int>(contexts_[0].plan.levels.size());
   }
 
   const FusionPlan& best_plan() const { return contexts_[best_context_].plan; }
 
-  // Searches below each seed, most supported first, until one gives an interpretation that
-  // matches at least half the model's points, or the budget ends; without seeds, from the
-  // nominal geometry (the paper's search).
+  // The estimate from a labelling of the best plan's levels, started at `start` (the tree's
+  // estimate, which has every point, occluded ones included, near its place; the closed-form
+  // starts of solve.h place occluded points of a moved part at the nominal geometry).
+  Solution SolveLabelling(const std::vector<int>& assignment, const Values& start) const {
+    PoseSet guess;
+    for (const Component& c : g_.components) {
+      const Block& b = g_.blocks[c.block];
+      if (c.rigid) {
+        guess.components.push_back({c.name, start.poses[b.index], {}});
+      } else {
+        guess.points.push_back({c.name, start.points[b.index], {}});
+      }
+    }
+    SolveOptions options = options_.solve;
+    options.guess = &guess;
+    options.sequence.gauss_newton_from_start = true;
+    MeasurementSet labelled = set_;
+    for (MeasuredPoint& m : labelled.points) m.label.clear();
+    const Context& ctx = contexts_[best_context_];
+    for (int l = 0; l < levels_; ++l) {
+      if (assignment[l] >= 0) {
+        labelled.points[assignment[l]].label =
+            ModelPointName(g_, ctx.points[l].component, ctx.points[l].feature);
+      }
+    }
+    return Solve(g_, labelled, options);
+  }
+
+  // Refines the best labelling against its own estimate (see "Refinement" below), at most
+  // `rounds` times; returns the estimate of the final labelling and the number of changes.
+  Solution Refine(std::vector<int>* assignment, int rounds, int* changes) const {
+    Solution solution = SolveLabelling(*assignment, best_mean_);
+    *changes = 0;
+    double score = LabellingScore(best_context_, *assignment, solution.state);
+    for (int r = 0; r < rounds; ++r) {
+      const std::vector<int> next = Reassociate(best_context_, solution.state);
+      if (next == *assignment) break;
+      // Each labelling scored under its own estimate: the likelihood ratio of the data under
+      // it against all clutter.
+      Solution next_solution = SolveLabelling(next, solution.state.mean);
+      const double next_score = LabellingScore(best_context_, next, next_solution.state);
+      if (!(next_score > score)) break;
+      *assignment = next;
+      solution = std::move(next_solution);
+      score = next_score;
+      ++*changes;
+    }
+    return solution;
+  }
+
+  // Searches below each seed, most supported first, by iterative deepening on null branches:
+  // round k allows k of them, and the first complete interpretation found below a seed ends
+  // its search (it has the most matches that seed allows: every round before failed). A later
+  // seed is searched only if its support could still beat that interpretation, and then must
+  // match more points. Without seeds, the same from the nominal geometry (the paper's search).
   void Run() {
     std::vector<Seed> seeds = Seeds();
     stats_.seeds = static_cast<int>(seeds.size());
-    // Iterative deepening on occlusions: first every level must match, then one null branch is
-    // allowed, then two, ... The first complete interpretation found therefore has the most
-    // matches there are; and a wrong early choice, which the levels below it can only answer
-    // with nulls, is abandoned as soon as it needs more of them than allowed, instead of being
-    // searched to the bottom.
-    for (int nulls = 0; nulls <= levels_; ++nulls) {
-      max_nulls_ = nulls;
-      if (seeds.empty()) {
+    if (seeds.empty()) {
+      for (int nulls = 0; nulls <= levels_ && !found_; ++nulls) {
+        max_nulls_ = nulls;
         Search(nullptr);
-      } else {
-        for (Seed& seed : seeds) {
-          if (nulls == 0) ++stats_.seeds_tried;
-          deepest_ = 0;
-          Search(&seed);
-          seed.deepest = std::max(seed.deepest, deepest_);
-          if (stats_.status == SearchStats::Status::kBudget || best_matched_ >= 0) break;
-        }
-        // The next round first searches below the seeds that got deepest in this one: a wrong
-        // seed runs out of allowed nulls within a few levels, the right one near the bottom.
-        std::stable_sort(seeds.begin(), seeds.end(),
-                         [](const Seed& a, const Seed& b) { return a.deepest > b.deepest; });
+        if (stats_.status == SearchStats::Status::kBudget) return;
       }
-      if (stats_.status == SearchStats::Status::kBudget || best_matched_ >= 0) return;
+      return;
+    }
+    for (Seed& seed : seeds) {
+      if (best_matched_ >= 0 && seed.support + kSupportMargin < best_matched_) break;
+      ++stats_.seeds_tried;
+      found_ = false;
+      for (int nulls = 0; nulls <= levels_ && !found_; ++nulls) {
+        if (best_matched_ >= 0 && levels_ - nulls <= best_matched_) break;
+        max_nulls_ = nulls;
+        Search(&seed);
+        if (stats_.status == SearchStats::Status::kBudget) return;
+      }
     }
   }
 
@@ -259,6 +317,7 @@ class Interpreter {
   int best_matched_ = -1;
   double best_delta_ = 0;
   std::vector<int> best_assignment_;
+  Values best_mean_;  // the tree's estimate at the best leaf
   std::vector<std::vector<std::pair<int, double>>> best_trace_;
 
  private:
@@ -578,13 +637,13 @@ class Interpreter {
       }
       const Candidate c = f.candidates[f.next++];
       const int real = c.measurement >= 0 ? 1 : 0;
-      if (!real && f.nulls >= max_nulls_) continue;
-      // Can this branch still beat the best: more matches, or as many with less total δ?
-      const int can_match = f.matched + real + (levels_ - f.level - 1);
-      if (best_matched_ >= 0 && (can_match < best_matched_ ||
-                                 (can_match == best_matched_ && f.delta_sum >= best_delta_))) {
+      // The null branch after a confident match passed its tests is not tried: the point is
+      // there (Lowe's probability that the measurement is clutter is below 1 %).
+      if (!real && (f.nulls >= max_nulls_ || (options_.probability_order && f.confident_passed)))
         continue;
-      }
+      // Can this branch still match more points than the best so far?
+      const int can_match = f.matched + real + (levels_ - f.level - 1);
+      if (best_matched_ >= 0 && can_match <= best_matched_) continue;
       if (stats_.nodes >= options_.max_nodes) {
         stats_.status = SearchStats::Status::kBudget;
         return;
@@ -629,13 +688,15 @@ class Interpreter {
         ++stats_.backtracks;
         continue;
       }
-      if (can_match == best_matched_ && child.delta_sum >= best_delta_) continue;
       ++stats_.expanded;
+      if (real) ++f.real_passed;
+      if (real && c.probability >= kConfident) f.confident_passed = true;
       if (child.level == levels_) {
         double trailing_nis = 0;
-        if (FuseConstraints(ctx_->plan.trailing, &child, &trailing_nis) &&
+        if (FuseConstraints(ctx_->plan.trailing, &child, &trailing_nis) && FuseRemaining(&child) &&
             JointlyCompatible(child)) {
           Leaf(child, stack);
+          return;  // the first complete interpretation of the round
         } else {
           ++stats_.backtracks;
         }
@@ -675,20 +736,24 @@ class Interpreter {
         continue;
       }
       const Constraint& c = g_.constraints[k];
-      const FusionSummary s = Fuse({c.residual, c.blocks, {}, c.name}, &f->state);
-      if (s.status == FusionSummary::Status::kContradiction ||
-          s.status == FusionSummary::Status::kInvalid ||
-          s.status == FusionSummary::Status::kNotConverged) {
-        return false;
-      }
-      if (s.rows_fused > 0) {
-        if (s.innovation_nis > Gate(s.rows_fused)) {
-          return false;
-        }
-        f->nis_sum += s.innovation_nis;
-        f->nis_dof += s.rows_fused;
-        *nis += s.innovation_nis;
-      }
+      if (!Accept(Fuse({c.residual, c.blocks, {}, c.name}, &f->state), f, nis)) return false;
+    }
+    return true;
+  }
+
+  // Whether a constraint's fusion is consistent: not refused, converged, and its innovation
+  // NIS inside the chi-square gate for its rows (then added to the branch's and to *nis).
+  bool Accept(const FusionSummary& s, Frame* f, double* nis) const {
+    if (s.status == FusionSummary::Status::kContradiction ||
+        s.status == FusionSummary::Status::kInvalid ||
+        s.status == FusionSummary::Status::kNotConverged) {
+      return false;
+    }
+    if (s.rows_fused > 0) {
+      if (s.innovation_nis > Gate(s.rows_fused)) return false;
+      f->nis_sum += s.innovation_nis;
+      f->nis_dof += s.rows_fused;
+      *nis += s.innovation_nis;
     }
     return true;
   }
@@ -709,13 +774,164 @@ class Interpreter {
         });
         if (others_matched) ready.push_back(k);
       }
-      if (ready.empty() || !Recentre(f, static_cast<int>(n))) continue;
+      if (ready.empty()) continue;
+      GaussianState saved = f->state;
+      if (!Recentre(f, static_cast<int>(n)) || !Determine(ready, static_cast<int>(n), *f) ||
+          !Place(ready, static_cast<int>(n), f)) {
+        f->state = std::move(saved);
+        continue;
+      }
+      // Together: fused one by one, a constraint linearised at the re-centred guess can leave
+      // the next one degenerate (joint_factor.h).
+      std::vector<Factor> parts;
+      for (int k : ready) {
+        const Constraint& c = g_.constraints[k];
+        parts.push_back({c.residual, c.blocks, {}, c.name});
+      }
+      const Factor joint = parts.size() == 1
+                               ? parts[0]
+                               : JointConstraint(parts, block_kinds_, ModelPointName(g_, n, -1));
+      const FusionSummary s = Fuse(joint, &f->state);
+      if (s.status == FusionSummary::Status::kNotConverged) {
+        // The neighbours matched so far place the point only ill-conditioned (it sits where
+        // their spheres touch): it waits for more of them.
+        f->state = std::move(saved);
+        continue;
+      }
+      double nis = 0;
+      if (!Accept(s, f, &nis)) return false;
       f->null_component[n] = false;  // placed: its constraints are fused from now on
       for (int k : ready) f->deferred.erase(std::find(f->deferred.begin(), f->deferred.end(), k));
-      double nis = 0;
-      if (!FuseConstraints(ready, f, &nis)) return false;
     }
     return true;
+  }
+
+  // At a leaf: the constraints still waiting on occluded points, fused together as one factor
+  // (each such point first re-centred on its neighbours) and tested, so that every constraint
+  // has checked the matches before the leaf counts. False when they disagree with them.
+  bool FuseRemaining(Frame* f) const {
+    if (f->deferred.empty()) return true;
+    for (size_t n = 0; n < g_.components.size(); ++n) {
+      if (!f->null_component[n] || !Recentre(f, static_cast<int>(n))) continue;
+      std::vector<int> own;
+      for (int k : f->deferred) {
+        const std::vector<int>& comps = constraint_components_[k];
+        if (std::find(comps.begin(), comps.end(), static_cast<int>(n)) != comps.end()) {
+          own.push_back(k);
+        }
+      }
+      Place(own, static_cast<int>(n), f);
+    }
+    std::vector<Factor> parts;
+    for (int k : f->deferred) {
+      const Constraint& c = g_.constraints[k];
+      parts.push_back({c.residual, c.blocks, {}, c.name});
+    }
+    f->deferred.clear();
+    double nis = 0;
+    GaussianState saved = f->state;
+    const FusionSummary s = Fuse(JointConstraint(parts, block_kinds_, "deferred"), &f->state);
+    if (s.status == FusionSummary::Status::kNotConverged) {
+      // The points stay determined only at second order (see Determine): their iterations do
+      // not settle, but the first, linearised where the points were guessed, still tests the
+      // matches.
+      f->state = std::move(saved);
+      return s.rows_fused == 0 || s.innovation_nis <= Gate(s.rows_fused);
+    }
+    return Accept(s, f, &nis);
+  }
+
+  // Moves single point `component` (re-centred near its place) to where constraints `list`
+  // hold best with everything else fixed: Levenberg-Marquardt on the sum of their squared
+  // residuals. The re-centring maps the nominal geometry rigidly onto matched neighbours that
+  // may belong to parts turned about a joint between them, which can leave the point
+  // centimetres off; linearised there, its constraints would disagree with matches that are
+  // right. False when the residuals are not finite.
+  bool Place(const std::vector<int>& list, int component, Frame* f) const {
+    const int point_block = g_.components[component].block;
+    Eigen::Vector3d& x = f->state.mean.points[g_.blocks[point_block].index];
+    auto evaluate = [&](Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
+      std::vector<double> r_all;
+      std::vector<Eigen::RowVector3d> j_all;
+      Eigen::VectorXd r;
+      Eigen::MatrixXd H;
+      for (int k : list) {
+        const Constraint& c = g_.constraints[k];
+        EvaluateResidual(*c.residual, g_.blocks, c.blocks, f->state.mean, &r,
+                         jacobian ? &H : nullptr);
+        for (int i = 0; i < r.size(); ++i) r_all.push_back(r(i));
+        if (!jacobian) continue;
+        int column = 0;
+        for (size_t s = 0; s < c.blocks.size(); ++s) {
+          if (c.blocks[s] == point_block) {
+            for (int i = 0; i < r.size(); ++i) j_all.push_back(H.block<1, 3>(i, column));
+          }
+          column += TangentDim(g_.blocks[c.blocks[s]].kind);
+        }
+      }
+      *residual = Eigen::Map<Eigen::VectorXd>(r_all.data(), static_cast<long>(r_all.size()));
+      if (jacobian) {
+        jacobian->resize(static_cast<long>(j_all.size()), 3);
+        for (size_t i = 0; i < j_all.size(); ++i) jacobian->row(static_cast<long>(i)) = j_all[i];
+      }
+    };
+    Eigen::VectorXd r, r_new;
+    Eigen::MatrixXd J;
+    evaluate(&r, &J);
+    if (!r.allFinite() || !J.allFinite()) return false;
+    double cost = r.squaredNorm(), lambda = 1e-3;
+    for (int it = 0; it < kPlaceIterations && cost > 0; ++it) {
+      const Eigen::Matrix3d JtJ = J.transpose() * J;
+      const Eigen::Vector3d g = J.transpose() * r;
+      const Eigen::Vector3d step =
+          -(JtJ + lambda * Eigen::Matrix3d(JtJ.diagonal().cwiseMax(1e-12).asDiagonal()))
+               .ldlt()
+               .solve(g);
+      const Eigen::Vector3d before = x;
+      x += step;
+      evaluate(&r_new, nullptr);
+      if (r_new.allFinite() && r_new.squaredNorm() < cost) {
+        cost = r_new.squaredNorm();
+        lambda = std::max(lambda / 10, 1e-9);
+        evaluate(&r, &J);
+        if (step.norm() <= 1e-12 * (1 + x.norm())) break;
+      } else {
+        x = before;
+        lambda *= 10;
+        if (lambda > 1e9) break;
+      }
+    }
+    return true;
+  }
+
+  // Whether constraints `list` determine single point `component` where it is now guessed:
+  // their rows, each scaled to a unit gradient in the point, span all three directions well
+  // (smallest singular value above 0.1). Two distances leave it a circle; three whose centres
+  // are coplanar with it meet there only tangentially. Either way its place would be the
+  // guess's, and the constraints fused there would pin it wrongly.
+  bool Determine(const std::vector<int>& list, int component, const Frame& f) const {
+    const int point_block = g_.components[component].block;
+    std::vector<Eigen::RowVector3d> rows;
+    Eigen::VectorXd r;
+    Eigen::MatrixXd H;
+    for (int k : list) {
+      const Constraint& c = g_.constraints[k];
+      EvaluateResidual(*c.residual, g_.blocks, c.blocks, f.state.mean, &r, &H);
+      int column = 0;
+      for (int b : c.blocks) {
+        if (b == point_block) {
+          for (int i = 0; i < H.rows(); ++i) {
+            const Eigen::RowVector3d row = H.block<1, 3>(i, column);
+            if (row.norm() > 0) rows.push_back(row.normalized());
+          }
+        }
+        column += TangentDim(g_.blocks[b].kind);
+      }
+    }
+    if (rows.size() < 3) return false;
+    Eigen::MatrixXd A(rows.size(), 3);
+    for (size_t i = 0; i < rows.size(); ++i) A.row(static_cast<long>(i)) = rows[i];
+    return Eigen::JacobiSVD<Eigen::MatrixXd>(A).singularValues()(2) > kDetermined;
   }
 
   // Whether component c has a match on f's branch (a seed's or a level's).
@@ -832,28 +1048,9 @@ class Interpreter {
     for (size_t m = 0; m < set_.points.size(); ++m) {
       if (used[m]) continue;
       const MeasuredPoint& z = set_.points[m];
-      const Prediction& p = z.is_3d ? p3 : p2;
-      if (!p.valid) continue;
-      const Eigen::VectorXd d =
-          p.mean + (z.is_3d ? Eigen::VectorXd(-z.xyz) : Eigen::VectorXd(-z.uv));
-      const Eigen::MatrixXd S =
-          p.covariance + (z.is_3d ? Eigen::MatrixXd(z.cov3) : Eigen::MatrixXd(z.cov2));
-      const Eigen::LLT<Eigen::MatrixXd> llt(S);
-      if (llt.info() != Eigen::Success) continue;
-      const double delta = d.dot(llt.solve(d));
-      if (!(delta <= (z.is_3d ? gate3_ : gate2_))) continue;
-      const double log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
-      const double log_p = -0.5 * delta - 0.5 * (d.size() * std::log(kTwoPi) + log_det);
-      const double q = z.is_3d ? clutter3_ : clutter2_;
-      // p / (p + q), from log p without overflow.
-      const double probability = 1 / (1 + q * std::exp(-log_p));
-      // Clutter points expected inside the gate: q times the gate ellipsoid's volume. Where it
-      // is 1 or more the prediction says little, and p/(p+q) cannot tell a match from clutter.
-      const double dim = static_cast<double>(d.size());
-      const double gate = z.is_3d ? gate3_ : gate2_;
-      const double unit_ball = dim == 3 ? 4.18879020478639 : 3.14159265358979;
-      const double in_gate = q * unit_ball * std::pow(gate, dim / 2) * std::exp(0.5 * log_det);
-      f->candidates.push_back({static_cast<int>(m), delta, probability, in_gate < 1});
+      const std::optional<Candidate> scored = Score(z.is_3d ? p3 : p2, static_cast<int>(m));
+      if (!scored) continue;
+      f->candidates.push_back(*scored);
       listed[m] = true;
     }
     std::vector<Candidate>& c = f->candidates;
@@ -886,6 +1083,96 @@ class Interpreter {
     for (const Candidate& x : all) {
       if (x.measurement >= 0 && f->best3.size() < 3) f->best3.push_back({x.measurement, x.delta});
     }
+  }
+
+  // Measurement m against a prediction of its model point: its δ, Lowe's probability and
+  // whether the gate is informative; nothing when outside the gate.
+  std::optional<Candidate> Score(const Prediction& p, int m, bool gated = true) const {
+    const MeasuredPoint& z = set_.points[m];
+    if (!p.valid) return std::nullopt;
+    const Eigen::VectorXd d = p.mean + (z.is_3d ? Eigen::VectorXd(-z.xyz) : Eigen::VectorXd(-z.uv));
+    const Eigen::MatrixXd S =
+        p.covariance + (z.is_3d ? Eigen::MatrixXd(z.cov3) : Eigen::MatrixXd(z.cov2));
+    const Eigen::LLT<Eigen::MatrixXd> llt(S);
+    if (llt.info() != Eigen::Success) return std::nullopt;
+    const double delta = d.dot(llt.solve(d));
+    if (gated && !(delta <= (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
+    if (!std::isfinite(delta)) return std::nullopt;
+    const double log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
+    const double log_p = -0.5 * delta - 0.5 * (d.size() * std::log(kTwoPi) + log_det);
+    const double q = z.is_3d ? clutter3_ : clutter2_;
+    // p / (p + q), from log p without overflow.
+    const double probability = 1 / (1 + q * std::exp(-log_p));
+    // Clutter points expected inside the gate: q times the gate ellipsoid's volume. Where it
+    // is 1 or more the prediction says little, and p/(p+q) cannot tell a match from clutter.
+    const double dim = static_cast<double>(d.size());
+    const double gate = z.is_3d ? gate3_ : gate2_;
+    const double unit_ball = dim == 3 ? 4.18879020478639 : 3.14159265358979;
+    const double in_gate = q * unit_ball * std::pow(gate, dim / 2) * std::exp(0.5 * log_det);
+    return Candidate{m, delta, probability, in_gate < 1, log_p - std::log(q)};
+  }
+
+  // ---- Refinement -------------------------------------------------------------------------
+  //
+  // The tree decides each match from the estimate of the points matched before it; the
+  // interpretation's own estimate, from all its matches and every constraint, predicts every
+  // model point far better (an occluded point's neighbours on both sides, not only those
+  // before it). Measurements are re-associated to those predictions: each (point, measurement)
+  // pair inside the gate and likelier the point than clutter (p > q) is a candidate, and pairs
+  // are taken by decreasing log(p/q), each point and measurement once. The new labelling
+  // replaces the old one when its total log(p/q) under the same estimate is larger.
+
+  // Per level of `context`: the re-associated measurement, or -1.
+  std::vector<int> Reassociate(int context, const GaussianState& state) const {
+    struct Pair {
+      double score;
+      int level, measurement;
+    };
+    std::vector<Pair> pairs;
+    const Context& ctx = contexts_[context];
+    for (int l = 0; l < levels_; ++l) {
+      const auto [p3, p2] = PredictPoint(ctx.points[l], state);
+      for (size_t m = 0; m < set_.points.size(); ++m) {
+        if (duplicate_[m]) continue;
+        const std::optional<Candidate> c =
+            Score(set_.points[m].is_3d ? p3 : p2, static_cast<int>(m));
+        if (c && c->log_ratio > 0) pairs.push_back({c->log_ratio, l, static_cast<int>(m)});
+      }
+    }
+    std::sort(pairs.begin(), pairs.end(), [](const Pair& a, const Pair& b) {
+      return a.score > b.score || (a.score == b.score && std::tie(a.level, a.measurement) <
+                                                             std::tie(b.level, b.measurement));
+    });
+    std::vector<int> assignment(levels_, -1);
+    std::vector<bool> taken(set_.points.size(), false);
+    for (const Pair& p : pairs) {
+      if (assignment[p.level] >= 0 || taken[p.measurement]) continue;
+      assignment[p.level] = p.measurement;
+      taken[p.measurement] = true;
+    }
+    return assignment;
+  }
+
+  // The total log(p/q) of a labelling under `state` (no gate: a match far off scores low).
+  double LabellingScore(int context, const std::vector<int>& assignment,
+                        const GaussianState& state) const {
+    double total = 0;
+    for (int l = 0; l < levels_; ++l) {
+      if (assignment[l] < 0) continue;
+      const auto [p3, p2] = PredictPoint(contexts_[context].points[l], state);
+      const std::optional<Candidate> c =
+          Score(set_.points[assignment[l]].is_3d ? p3 : p2, assignment[l], false);
+      total += c ? c->log_ratio : -1e300;
+    }
+    return total;
+  }
+
+  std::pair<Prediction, Prediction> PredictPoint(ModelPointRef point,
+                                                 const GaussianState& state) const {
+    Prediction p3, p2;
+    if (!index3_.empty()) p3 = Predict(MeasurementFactor(g_, set_, point, -1, false), state);
+    if (!index2_.empty()) p2 = Predict(MeasurementFactor(g_, set_, point, -1, true), state);
+    return {p3, p2};
   }
 
   std::vector<Candidate> LocusCandidates(const Frame& f, const std::vector<bool>& used,
@@ -953,13 +1240,12 @@ class Interpreter {
   }
 
   void Leaf(const Frame& f, const std::vector<Frame>& path) {
-    const bool better = best_matched_ < 0 || f.matched > best_matched_ ||
-                        (f.matched == best_matched_ && f.delta_sum < best_delta_);
-    if (!better) return;
+    found_ = true;
     best_matched_ = f.matched;
     best_delta_ = f.delta_sum;
     best_context_ = context_;
     best_assignment_ = assignment_;
+    best_mean_ = f.state.mean;
     for (int l = 0; l < levels_; ++l) {
       if (preassigned_[l] >= 0) best_assignment_[l] = preassigned_[l];
     }
@@ -980,6 +1266,7 @@ class Interpreter {
   bool image_ = false;                 // image measurements only
   std::vector<int> index3_, index2_;   // 3D and 2D measurements, first copies only
   std::vector<bool> duplicate_;        // per measurement: a repeat of an earlier one
+  bool found_ = false;                 // the current seed's search found a complete interpretation
   int max_nulls_ = 0;                  // of the current round of iterative deepening
   mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
   int deepest_ = 0;                    // the deepest level the current search has reached
@@ -989,6 +1276,7 @@ class Interpreter {
   std::vector<int> preassigned_;  // per level: the seed's measurement, or -1
   std::vector<int> assignment_;   // per level on the current branch
   long p3p_calls_ = 0;
+  std::vector<BlockKind> block_kinds_;  // per block id
   mutable std::optional<Grid> grid3_, grid2_;
   mutable double diagonal_ = 1000;
 };
@@ -1013,8 +1301,12 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
   out.assignment.assign(out.plan.levels.size(), -1);
   if (search.best_matched_ < 0) return out;
   out.assignment = search.best_assignment_;
-  out.matched = search.best_matched_;
   out.total_delta = search.best_delta_;
+  std::optional<Solution> solution;
+  if (options.refine_rounds > 0) {
+    solution = search.Refine(&out.assignment, options.refine_rounds, &out.stats.refinements);
+  }
+  out.matched = 0;
   for (size_t l = 0; l < out.plan.levels.size(); ++l) {
     const PlanLevel& p = out.plan.levels[l];
     TraceLevel t;
@@ -1026,12 +1318,12 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
     out.trace.push_back(std::move(t));
     if (out.assignment[l] >= 0) {
       out.matches[out.assignment[l]] = ModelPointName(graph, p.component, p.feature);
+      ++out.matched;
     }
   }
   if (out.matched > 0) {
-    MeasurementSet labelled = set;
-    for (size_t i = 0; i < labelled.points.size(); ++i) labelled.points[i].label = out.matches[i];
-    out.solution = Solve(graph, labelled, options.solve);
+    out.solution =
+        solution ? std::move(solution) : search.SolveLabelling(out.assignment, search.best_mean_);
   }
   return out;
 }

@@ -75,6 +75,9 @@ struct InterpretOptions {
   // Off: constraints between components are ignored and each component is interpreted alone
   // (the paper's divide and conquer; a baseline).
   bool use_constraints_between_components = true;
+  // Re-associations of the labelling against its own estimate (0: the tree's labelling as
+  // found).
+  int refine_rounds = 3;
   PosesFromThreeProjections poses_from_three_projections;  // image data: seeds
   SolveOptions solve;  // the final estimate from the matches found
 };
@@ -91,6 +94,7 @@ struct SearchStats {
   int levels = 0;
   int seeds = 0;        // seed hypotheses found
   int seeds_tried = 0;  // of which searched below
+  int refinements = 0;  // labellings replaced by their re-association
 };
 const char* StatusName(SearchStats::Status status);
 

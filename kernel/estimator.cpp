@@ -440,7 +440,7 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
                              const SequenceOptions& options) {
   const GaussianState prior = *state;
   SequenceSummary summary;
-  Values previous;
+  Values previous = prior.mean;
   for (int pass = 0; pass < options.max_passes; ++pass) {
     if (pass > 0) {
       previous = state->mean;
@@ -448,11 +448,12 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
     }
     // Later passes linearise every factor once, about the previous estimate: the sequence of
     // linear updates is then one Gauss-Newton step of the whole problem.
+    const bool gauss_newton = pass > 0 || options.gauss_newton_from_start;
     FusionOptions fusion = options.fusion;
-    if (pass > 0) fusion.max_iterations = 1;
+    if (gauss_newton) fusion.max_iterations = 1;
     summary.fusions.clear();
     for (const Factor& f : factors) {
-      summary.fusions.push_back(Fuse(f, state, fusion, pass > 0 ? &previous : nullptr));
+      summary.fusions.push_back(Fuse(f, state, fusion, gauss_newton ? &previous : nullptr));
     }
     summary.passes = pass + 1;
     summary.max_constraint_residual = MaxConstraintResidual(factors, state->blocks, state->mean);

@@ -109,6 +109,14 @@ struct SequenceOptions {
   FusionOptions fusion;
   int max_passes = 8;
   double constraint_tolerance = 1e-10;  // max |c(x)| accepted, in the residuals' units
+  // The first pass too is a Gauss-Newton step about the prior's mean, for a start known to be
+  // close (e.g. an interpretation tree's estimate). A factor's local iterations linearise it at
+  // the estimate of the factors before it, which makes the pass depend on their order: a
+  // point determined only at second order by its first constraints (a corner of a flat
+  // quadrilateral held by three distances, before the coplanarity that pins it) is thrown
+  // far along its free direction. Linearised about one point, the updates solve the
+  // linearised problem exactly, in any order.
+  bool gauss_newton_from_start = false;
 };
 
 struct SequenceSummary {
