@@ -109,6 +109,7 @@ struct Frame {
   // matched neighbours leave (a joint's angle), so they wait until it can be placed.
   std::vector<bool> null_component;
   std::vector<int> deferred;
+  std::vector<int> tried;  // per component: ready constraints when its placing was last tried
 };
 
 // A fusion plan and what the search needs of it.
@@ -268,26 +269,53 @@ class Interpreter {
     Solution solution = SolveLabelling(*assignment, best_mean_);
     *changes = 0;
     double score = LabellingScore(best_context_, *assignment, solution.state);
-    for (int r = 0; r < rounds; ++r) {
-      const std::vector<int> next = Reassociate(best_context_, solution.state);
-      if (next == *assignment) break;
-      // Each labelling scored under its own estimate: the likelihood ratio of the data under
-      // it against all clutter.
+    // Each labelling is scored under its own estimate: the likelihood ratio of the data under
+    // it against all clutter. A proposal replaces the labelling when it scores higher.
+    auto try_labelling = [&](const std::vector<int>& next) {
       Solution next_solution = SolveLabelling(next, solution.state.mean);
       const double next_score = LabellingScore(best_context_, next, next_solution.state);
-      if (!(next_score > score)) break;
+      if (!(next_score > score)) return false;
       *assignment = next;
       solution = std::move(next_solution);
       score = next_score;
       ++*changes;
+      return true;
+    };
+    for (int r = 0; r < rounds; ++r) {
+      // Every point re-associated at once.
+      const std::vector<int> next = Reassociate(best_context_, solution.state);
+      if (next != *assignment && try_labelling(next)) continue;
+      // A measurement moved from a matched point to an unmatched one whose gate holds it: two
+      // points close together (the two faces of a thin plate) of which one is occluded. Matched
+      // to the wrong one, the estimate bends to fit it, and re-association alone stays there.
+      if (!MoveToUnmatched(try_labelling, solution.state, *assignment)) break;
     }
     return solution;
+  }
+
+  template <typename Try>
+  bool MoveToUnmatched(Try& try_labelling, const GaussianState& state,
+                       const std::vector<int>& assignment) const {
+    const Context& ctx = contexts_[best_context_];
+    for (int n = 0; n < levels_; ++n) {
+      if (assignment[n] >= 0) continue;
+      const auto [p3, p2] = PredictPoint(ctx.points[n], state);
+      for (int j = 0; j < levels_; ++j) {
+        const int m = assignment[j];
+        if (m < 0 || !Score(set_.points[m].is_3d ? p3 : p2, m)) continue;
+        std::vector<int> next = assignment;
+        next[n] = m;
+        next[j] = -1;
+        if (try_labelling(next)) return true;
+      }
+    }
+    return false;
   }
 
   // Searches below each seed, most supported first, by iterative deepening on null branches:
   // round k allows k of them, and the first complete interpretation found below a seed ends
   // its search (it has the most matches that seed allows: every round before failed). A later
-  // seed is searched only if its support could still beat that interpretation, and then must
+  // seed is searched only if its support could still beat that interpretation, and must then
   // match more points. Without seeds, the same from the nominal geometry (the paper's search).
   void Run() {
     std::vector<Seed> seeds = Seeds();
@@ -609,6 +637,7 @@ class Interpreter {
     Frame root;
     root.state = MakePrior(g_.blocks, initial, scale);
     root.null_component.assign(g_.components.size(), false);
+    root.tried.assign(g_.components.size(), 0);
     preassigned_.assign(levels_, -1);
     assignment_.assign(levels_, -1);
     if (seed) {
@@ -657,6 +686,7 @@ class Interpreter {
       child.nis_sum = f.nis_sum;
       child.nis_dof = f.nis_dof;
       child.null_component = f.null_component;
+      child.tried = f.tried;
       child.deferred = f.deferred;
       assignment_[f.level] = c.measurement;
       const int component = ctx_->points[f.level].component;
@@ -671,8 +701,8 @@ class Interpreter {
           ++stats_.backtracks;
           continue;
         }
-        delta += s.innovation_nis;
-        child.nis_sum += s.innovation_nis;
+        delta += s.final_nis;
+        child.nis_sum += s.final_nis;
         child.nis_dof += image ? 2 : 3;
       }
       double own_nis = 0;
@@ -750,10 +780,10 @@ class Interpreter {
       return false;
     }
     if (s.rows_fused > 0) {
-      if (s.innovation_nis > Gate(s.rows_fused)) return false;
-      f->nis_sum += s.innovation_nis;
+      if (s.final_nis > Gate(s.rows_fused)) return false;
+      f->nis_sum += s.final_nis;
       f->nis_dof += s.rows_fused;
-      *nis += s.innovation_nis;
+      *nis += s.final_nis;
     }
     return true;
   }
@@ -774,13 +804,18 @@ class Interpreter {
         });
         if (others_matched) ready.push_back(k);
       }
-      if (ready.empty()) continue;
-      GaussianState saved = f->state;
+      // Tried once per set of ready constraints: the attempt below fails the same way until
+      // another neighbour is matched.
+      if (static_cast<int>(ready.size()) <= f->tried[n]) continue;
+      f->tried[n] = static_cast<int>(ready.size());
+      Eigen::Vector3d& point = f->state.mean.points[g_.blocks[g_.components[n].block].index];
+      const Eigen::Vector3d guessed = point;
       if (!Recentre(f, static_cast<int>(n)) || !Determine(ready, static_cast<int>(n), *f) ||
           !Place(ready, static_cast<int>(n), f)) {
-        f->state = std::move(saved);
+        point = guessed;
         continue;
       }
+      GaussianState saved = f->state;
       // Together: fused one by one, a constraint linearised at the re-centred guess can leave
       // the next one degenerate (joint_factor.h).
       std::vector<Factor> parts;
@@ -791,11 +826,12 @@ class Interpreter {
       const Factor joint = parts.size() == 1
                                ? parts[0]
                                : JointConstraint(parts, block_kinds_, ModelPointName(g_, n, -1));
-      const FusionSummary s = Fuse(joint, &f->state);
+      const FusionSummary s = Fuse(joint, &f->state, joint_fusion_);
       if (s.status == FusionSummary::Status::kNotConverged) {
         // The neighbours matched so far place the point only ill-conditioned (it sits where
         // their spheres touch): it waits for more of them.
         f->state = std::move(saved);
+        f->state.mean.points[g_.blocks[g_.components[n].block].index] = guessed;
         continue;
       }
       double nis = 0;
@@ -830,7 +866,8 @@ class Interpreter {
     f->deferred.clear();
     double nis = 0;
     GaussianState saved = f->state;
-    const FusionSummary s = Fuse(JointConstraint(parts, block_kinds_, "deferred"), &f->state);
+    const FusionSummary s =
+        Fuse(JointConstraint(parts, block_kinds_, "deferred"), &f->state, joint_fusion_);
     if (s.status == FusionSummary::Status::kNotConverged) {
       // The points stay determined only at second order (see Determine): their iterations do
       // not settle, but the first, linearised where the points were guessed, still tests the
@@ -1087,7 +1124,7 @@ class Interpreter {
 
   // Measurement m against a prediction of its model point: its δ, Lowe's probability and
   // whether the gate is informative; nothing when outside the gate.
-  std::optional<Candidate> Score(const Prediction& p, int m, bool gated = true) const {
+  std::optional<Candidate> Score(const Prediction& p, int m, double gate_scale = 1) const {
     const MeasuredPoint& z = set_.points[m];
     if (!p.valid) return std::nullopt;
     const Eigen::VectorXd d = p.mean + (z.is_3d ? Eigen::VectorXd(-z.xyz) : Eigen::VectorXd(-z.uv));
@@ -1096,7 +1133,7 @@ class Interpreter {
     const Eigen::LLT<Eigen::MatrixXd> llt(S);
     if (llt.info() != Eigen::Success) return std::nullopt;
     const double delta = d.dot(llt.solve(d));
-    if (gated && !(delta <= (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
+    if (gate_scale > 0 && !(delta <= gate_scale * (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
     if (!std::isfinite(delta)) return std::nullopt;
     const double log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
     const double log_p = -0.5 * delta - 0.5 * (d.size() * std::log(kTwoPi) + log_det);
@@ -1161,7 +1198,7 @@ class Interpreter {
       if (assignment[l] < 0) continue;
       const auto [p3, p2] = PredictPoint(contexts_[context].points[l], state);
       const std::optional<Candidate> c =
-          Score(set_.points[assignment[l]].is_3d ? p3 : p2, assignment[l], false);
+          Score(set_.points[assignment[l]].is_3d ? p3 : p2, assignment[l], 0);
       total += c ? c->log_ratio : -1e300;
     }
     return total;
@@ -1277,6 +1314,9 @@ class Interpreter {
   std::vector<int> assignment_;   // per level on the current branch
   long p3p_calls_ = 0;
   std::vector<BlockKind> block_kinds_;  // per block id
+  // For the constraints of occluded points fused together: iterations that have not settled
+  // within 20 do not (the point is determined only at second order).
+  FusionOptions joint_fusion_{.max_iterations = 20};
   mutable std::optional<Grid> grid3_, grid2_;
   mutable double diagonal_ = 1000;
 };

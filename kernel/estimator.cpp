@@ -353,6 +353,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       }
     }
     if (iteration == 0) summary.innovation_nis = z.head(k).squaredNorm();
+    summary.final_nis = z.head(k).squaredNorm();
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
     if (k == 1) {
       W.col(0).noalias() = P_sa * A.col(0);

@@ -82,7 +82,12 @@ struct FusionSummary {
   int rows_fused = 0;
   int iterations = 0;
   double innovation_nis = 0;  // r0ᵀ S⁻¹ r0 at the prior, over the fused directions
-  double contradiction = 0;   // the largest normalised innovation along a determined direction
+  // The same at the last linearisation, about the final iterate: the minimum of the factor's
+  // linearised cost there, which at convergence is its exact (MAP) cost
+  // ‖x - x0‖²_P⁻¹ + ‖r(x)‖²_R⁻¹. Equal to innovation_nis for an affine residual; for a curved
+  // one (a point on a turning part) it does not count the linearisation error at the prior.
+  double final_nis = 0;
+  double contradiction = 0;  // the largest normalised innovation along a determined direction
 
   bool changed_state() const {
     return status == Status::kFused || status == Status::kPartlyRedundant ||
