@@ -61,7 +61,10 @@ struct SimulateCommandOptions {
 };
 int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err);
 
-int RunDemo(std::ostream& out, std::ostream& err);
+struct DemoOptions {
+  std::string picture = "cfuse-demo.png";  // PNG of the measurements and the fitted lamp
+};
+int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
 
 // The embedded copy of examples/lamp.yaml used by `cfuse demo` (generated at build time).
 extern const char* const kEmbeddedLampYaml;

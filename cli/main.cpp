@@ -43,7 +43,8 @@ int main(int argc, char** argv) {
       ->required();
   interp_cmd->add_option("-o,--output", interp.output, "Result file (default: stdout)");
   interp_cmd->add_option("--tree", interp.tree, "Write the explored tree (Graphviz dot)");
-  interp_cmd->add_option("--gate", interp.gate, "Confidence of the chi-square gates (default 0.9999)")
+  interp_cmd
+      ->add_option("--gate", interp.gate, "Confidence of the chi-square gates (default 0.9999)")
       ->check(CLI::Range(0.5, 0.999999999));
   interp_cmd->add_option("--max-nodes", interp.max_nodes, "Node budget (default 20000)")
       ->check(CLI::Range(1L, 100000000L));
@@ -65,7 +66,10 @@ int main(int argc, char** argv) {
   sim_cmd->add_option("-o,--output", sim.output, "Measurement file to write")->required();
   sim_cmd->add_option("--truth", sim.truth, "Truth file to write")->required();
 
-  CLI::App* demo_cmd = app.add_subcommand("demo", "A short built-in run on the desk lamp model");
+  CLI::App* demo_cmd = app.add_subcommand(
+      "demo", "The built-in desk lamp: simulated with clutter and occlusion, then interpreted");
+  cfuse::cli::DemoOptions demo;
+  demo_cmd->add_option("--picture", demo.picture, "PNG picture to write")->capture_default_str();
 
   try {
     app.parse(argc, argv);
@@ -81,6 +85,6 @@ int main(int argc, char** argv) {
   if (*solve_cmd) return cfuse::cli::RunSolve(solve, std::cout, std::cerr);
   if (*interp_cmd) return cfuse::cli::RunInterpret(interp, std::cout, std::cerr);
   if (*sim_cmd) return cfuse::cli::RunSimulate(sim, std::cout, std::cerr);
-  if (*demo_cmd) return cfuse::cli::RunDemo(std::cout, std::cerr);
+  if (*demo_cmd) return cfuse::cli::RunDemo(demo, std::cout, std::cerr);
   return 2;
 }

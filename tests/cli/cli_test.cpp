@@ -122,11 +122,26 @@ TEST_CASE("cli: graph writes dot, atomically", "[cli]") {
   CHECK(err3.str().find("directory") != std::string::npos);
 }
 
-TEST_CASE("cli: demo checks the built-in lamp", "[cli]") {
+TEST_CASE("cli: demo interprets the built-in lamp and writes its picture", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const fs::path picture = dir / "demo.png";
+  fs::remove(picture);
   std::ostringstream out, err;
-  CHECK(RunDemo(out, err) == 0);
+  CHECK(RunDemo({picture.string()}, out, err) == 0);
   CHECK(out.str().find("DOF: 11 (6 rigid-body + 5 internal)") != std::string::npos);
+  CHECK(out.str().find("matches: 23 of 23 points right") != std::string::npos);
   CHECK(err.str().empty());
+  // A PNG: its signature, and a picture of some size.
+  std::ifstream in(picture, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  REQUIRE(bytes.size() > 10000);
+  CHECK(bytes.substr(1, 3) == "PNG");
+
+  // A picture that cannot be written: exit status 2, nothing left behind.
+  std::ostringstream out2, err2;
+  CHECK(RunDemo({(dir / "nope" / "demo.png").string()}, out2, err2) == 2);
+  CHECK(err2.str().find("directory") != std::string::npos);
 }
 
 }  // namespace
