@@ -318,6 +318,19 @@ class Interpreter {
   // seed is searched only if its support could still beat that interpretation, and must then
   // match more points. Without seeds, the same from the nominal geometry (the paper's search).
   void Run() {
+    Explore();
+    if (best_matched_ < 0 && partial_.matched > 0) {
+      // The budget ended the search before a complete interpretation: the branch that matched
+      // most, its remaining levels taken as unmatched.
+      best_matched_ = partial_.matched;
+      best_context_ = partial_.context;
+      best_assignment_ = partial_.assignment;
+      best_mean_ = partial_.mean;
+      best_trace_.assign(levels_, {});
+    }
+  }
+
+  void Explore() {
     std::vector<Seed> seeds = Seeds();
     stats_.seeds = static_cast<int>(seeds.size());
     if (seeds.empty()) {
@@ -737,6 +750,18 @@ class Interpreter {
         continue;
       }
       deepest_ = std::max(deepest_, child.level);
+      if (best_matched_ < 0 && child.matched > partial_.matched) {
+        // The best branch so far, for when the budget ends the search before any leaf.
+        partial_.matched = child.matched;
+        partial_.context = context_;
+        partial_.assignment.assign(levels_, -1);
+        for (int l = 0; l < levels_; ++l) {
+          partial_.assignment[l] = preassigned_[l] >= 0 ? preassigned_[l]
+                                   : l < child.level    ? assignment_[l]
+                                                        : -1;
+        }
+        partial_.mean = child.state.mean;
+      }
       stack.push_back(std::move(child));
     }
   }
@@ -1304,6 +1329,11 @@ class Interpreter {
   std::vector<int> index3_, index2_;   // 3D and 2D measurements, first copies only
   std::vector<bool> duplicate_;        // per measurement: a repeat of an earlier one
   bool found_ = false;                 // the current seed's search found a complete interpretation
+  struct {
+    int matched = 0, context = 0;
+    std::vector<int> assignment;
+    Values mean;
+  } partial_;  // the branch with the most matches, while no leaf is found
   int max_nulls_ = 0;                  // of the current round of iterative deepening
   mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
   int deepest_ = 0;                    // the deepest level the current search has reached
