@@ -1325,15 +1325,15 @@ class Interpreter {
   const Context* ctx_ = nullptr;  // of the search under way
   int best_context_ = 0;
   int levels_ = 0;
-  bool image_ = false;                 // image measurements only
-  std::vector<int> index3_, index2_;   // 3D and 2D measurements, first copies only
-  std::vector<bool> duplicate_;        // per measurement: a repeat of an earlier one
-  bool found_ = false;                 // the current seed's search found a complete interpretation
+  bool image_ = false;                // image measurements only
+  std::vector<int> index3_, index2_;  // 3D and 2D measurements, first copies only
+  std::vector<bool> duplicate_;       // per measurement: a repeat of an earlier one
+  bool found_ = false;                // the current seed's search found a complete interpretation
   struct {
     int matched = 0, context = 0;
     std::vector<int> assignment;
     Values mean;
-  } partial_;  // the branch with the most matches, while no leaf is found
+  } partial_;                          // the branch with the most matches, while no leaf is found
   int max_nulls_ = 0;                  // of the current round of iterative deepening
   mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
   int deepest_ = 0;                    // the deepest level the current search has reached
