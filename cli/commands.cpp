@@ -131,6 +131,7 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
                         {"levels", in.stats.levels},
                         {"seeds", in.stats.seeds},
                         {"seeds_tried", in.stats.seeds_tried},
+                        {"refinements", in.stats.refinements},
                         {"matched", in.matched},
                         {"total_delta", in.total_delta}};
     const std::string text = result.dump(2) + "\n";

@@ -11,19 +11,26 @@
 // (with local iterations), best first; a null branch at every level stands for an occluded
 // point: the paper's artificial measurement of infinite uncertainty, i.e. nothing is fused and
 // the point stays estimated through its constraints. A branch is dropped when a fusion fails
-// (a contradiction, or a non-finite prediction) or a constraint fused after the matches it
-// depends on disagrees with them: its innovation NIS exceeds the chi-square quantile for its
+// (a contradiction, a non-finite prediction, local iterations that do not settle) or a
+// constraint fused after the matches it depends on disagrees with them: its NIS, taken at its
+// converged linearisation (FusionSummary::final_nis), exceeds the chi-square quantile for its
 // rows.
 //
 // The search is depth first, children best first, by iterative deepening on occlusions: a
-// round allows at most k null branches, k = 0, 1, 2, ..., and the first round with a complete
-// interpretation ends the search, so that interpretation has the most matches there are. Within
-// that round the search goes on only where a branch can still beat the best found (as many
-// matches with less total δ), until the tree is exhausted or the node budget ends it (status
-// kBudget). Deepening matters: a wrong early choice can only be followed by nulls below it, and
-// a round abandons it as soon as it needs more than k of them, where a plain depth-first search
-// would explore it to the bottom (on lamps with 10 % occlusion and twice as much clutter it
-// raised the share of fully right interpretations from 19 to 33 in 40).
+// round allows at most k null branches, k = 0, 1, 2, ..., and the first complete
+// interpretation found ends the search, so it has the most matches there are below its seed.
+// Deepening matters: a wrong early choice can only be followed by nulls below it, and a round
+// abandons it as soon as it needs more than k of them, where a plain depth-first search would
+// explore it to the bottom. The node budget ends the search early (status kBudget; the best
+// interpretation so far, or the branch that matched most).
+//
+// Occluded single points. The constraints on a point taken as occluded wait: fused where the
+// point is guessed, they would pin it wrongly along any freedom its matched neighbours leave
+// (a joint's angle). Once the waiting constraints whose other points are matched determine the
+// point (their gradients span all three directions), it is placed where they hold best (a
+// small Levenberg-Marquardt solve) and they are fused together as one factor
+// (kernel/joint_factor.h): fused one at a time, a distance and a parallel axis that meet
+// tangentially make the second one's iterations diverge. A leaf fuses whatever still waits.
 //
 // Seeds. Under the vague prior a pose is unknown, so gating the first points of the tree means
 // nothing. The plan starts with a seed set from which a pose follows in closed form: a rigid
@@ -33,8 +40,8 @@
 // projects within the gate (2D). Each is scored by how many model points, placed rigidly with
 // the nominal geometry at the seed's pose, find a measurement near them (within 5 % of the
 // model's extent, or 3 % of the image diagonal), and the tree is searched below the best
-// first (in later rounds, below those whose search got deepest first); the whole model starts
-// at the seed's pose (the filter then linearises near the truth).
+// first; a later seed only if its support could beat the interpretation found, which it then
+// must (more matches). The whole model starts at the seed's pose.
 //
 // Beyond the paper (InterpretOptions, measured in docs/benchmarks.md):
 //  - joint compatibility (Neira & Tardós 2001): a branch is also dropped when its total
@@ -43,8 +50,15 @@
 //    their own gate;
 //  - Lowe's match probability p/(p+q) (Lowe 1992, eq. 3): p the Gaussian density of the
 //    innovation, q the clutter density (measurements per volume of their bounding box, or per
-//    image area). Candidates are tried by decreasing probability and the null branch before
-//    any candidate more likely clutter than the point (p/(p+q) < 1/2).
+//    image area). Candidates are tried by decreasing probability, the null branch before any
+//    candidate more likely clutter than the point (p/(p+q) < 1/2), and not at all once a
+//    candidate with p/(p+q) >= 0.99 passed its tests;
+//  - re-association (refine_rounds): the interpretation's own estimate, from all its matches
+//    and every constraint, predicts every point far better than the tree did when matching it
+//    (an occluded point's neighbours on both sides). Measurements are re-associated to those
+//    predictions by decreasing log(p/q), and a measurement matched to one point is offered to
+//    an unmatched point whose gate holds it (the two faces of a thin plate, one occluded); a
+//    new labelling replaces the old when its total log(p/q), under its own estimate, is higher.
 #pragma once
 
 #include <array>
