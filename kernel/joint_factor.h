@@ -12,6 +12,7 @@
 #include <algorithm>
 #include <array>
 #include <memory>
+#include <type_traits>
 #include <vector>
 
 #include "kernel/check.h"
@@ -48,6 +49,16 @@ class JointResidual : public AutoDiffResidual<JointResidual> {
   void Compute(std::span<const BlockState<T>> x, T* r) const {
     std::array<BlockState<T>, kMaxPartSlots> local;
     for (const Part& p : parts_) {
+      if constexpr (std::is_same_v<T, Jet>) {
+        // A Jacobian is taken a few tangent coordinates at a time (kernel/jet.h); a part that
+        // touches none of them is evaluated in doubles, its derivatives zero: the same values,
+        // at a fraction of the cost.
+        if (!Seeded(p, x)) {
+          EvaluatePlain(p, x, r);
+          r += p.residual->dimension();
+          continue;
+        }
+      }
       for (size_t i = 0; i < p.slots.size(); ++i) local[i] = x[p.slots[i]];
       p.residual->Evaluate(std::span<const BlockState<T>>(local.data(), p.slots.size()), r);
       r += p.residual->dimension();
@@ -70,6 +81,47 @@ class JointResidual : public AutoDiffResidual<JointResidual> {
     for (const Part& p : parts) n += p.residual->dimension();
     return n;
   }
+  // Whether some input of `p` carries a derivative.
+  bool Seeded(const Part& p, std::span<const BlockState<Jet>> x) const {
+    for (int slot : p.slots) {
+      const BlockState<Jet>& s = x[slot];
+      for (int i = 0; i < 3; ++i) {
+        if (!s.t[i].derivatives().isZero(0)) return true;
+      }
+      if (slot_kinds()[slot] == BlockKind::kPose) {
+        for (int i = 0; i < 9; ++i) {
+          if (!s.R(i).derivatives().isZero(0)) return true;
+        }
+      }
+    }
+    return false;
+  }
+
+  void EvaluatePlain(const Part& p, std::span<const BlockState<Jet>> x, Jet* r) const {
+    std::array<BlockState<double>, kMaxPartSlots> local;
+    for (size_t i = 0; i < p.slots.size(); ++i) {
+      const BlockState<Jet>& s = x[p.slots[i]];
+      for (int k = 0; k < 3; ++k) local[i].t[k] = s.t[k].value();
+      if (slot_kinds()[p.slots[i]] == BlockKind::kPose) {
+        for (int k = 0; k < 9; ++k) local[i].R(k) = s.R(k).value();
+      } else {
+        local[i].R.setIdentity();  // unused by points and slacks (residual.h)
+      }
+    }
+    std::array<double, 64> values;
+    std::vector<double> more;
+    double* out = values.data();
+    if (p.residual->dimension() > static_cast<int>(values.size())) {
+      more.resize(p.residual->dimension());
+      out = more.data();
+    }
+    p.residual->Evaluate(std::span<const BlockState<double>>(local.data(), p.slots.size()), out);
+    for (int i = 0; i < p.residual->dimension(); ++i) {
+      r[i].value() = out[i];
+      r[i].derivatives().setZero();
+    }
+  }
+
   std::vector<Part> parts_;
 };
 
