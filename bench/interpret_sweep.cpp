@@ -22,7 +22,6 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
-#include <map>
 #include <sstream>
 #include <vector>
 
@@ -72,24 +71,6 @@ InterpretOptions Config(const std::string& name) {
   return o;
 }
 
-// Model points by name, with their places in the true configuration.
-std::map<std::string, Eigen::Vector3d> TruePlaces(const ConstraintGraph& g, const Values& truth) {
-  std::map<std::string, Eigen::Vector3d> places;
-  for (size_t c = 0; c < g.components.size(); ++c) {
-    const Component& comp = g.components[c];
-    if (!comp.rigid) {
-      places[ModelPointName(g, static_cast<int>(c), -1)] =
-          ModelPoint(g, truth, static_cast<int>(c), -1);
-      continue;
-    }
-    for (size_t f = 0; f < comp.points.size(); ++f) {
-      places[ModelPointName(g, static_cast<int>(c), static_cast<int>(f))] =
-          ModelPoint(g, truth, static_cast<int>(c), static_cast<int>(f));
-    }
-  }
-  return places;
-}
-
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -108,7 +89,6 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   const ConstraintGraph g = dsl::LoadModel(model);
-  const double extent = ModelExtent(g);
   Camera pinhole;
   pinhole.fx = pinhole.fy = 800;
   pinhole.cx = 320;
@@ -139,14 +119,10 @@ int main(int argc, char** argv) {
           ms.push_back(
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                   .count());
-          const auto places = TruePlaces(g, sim.truth);
           bool all = true;
           for (size_t m = 0; m < sim.matches.size(); ++m) {
             const std::string &truth = sim.matches[m], &found = in.matches[m];
-            const bool ok = truth.empty()
-                                ? found.empty()
-                                : !found.empty() &&
-                                      (places.at(truth) - places.at(found)).norm() <= 1e-9 * extent;
+            const bool ok = SameModelPlace(g, sim.truth, truth, found);
             all = all && ok;
             if (!truth.empty()) {
               ++real;

@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <numeric>
+#include <optional>
 
+#include "interp/schedule.h"
 #include "interp/solve.h"
 #include "kernel/batch_solver.h"
 #include "kernel/evaluate.h"
@@ -176,6 +178,24 @@ Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options
     sim.matches = matches;
   }
   return sim;
+}
+
+bool SameModelPlace(const ConstraintGraph& graph, const Values& values, const std::string& truth,
+                    const std::string& found) {
+  if (truth.empty() || found.empty()) return truth.empty() && found.empty();
+  if (truth == found) return true;
+  std::optional<Eigen::Vector3d> a, b;
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    const Component& comp = graph.components[c];
+    const int features = comp.rigid ? static_cast<int>(comp.points.size()) : 1;
+    for (int f = 0; f < features; ++f) {
+      const int feature = comp.rigid ? f : -1;
+      const std::string name = ModelPointName(graph, static_cast<int>(c), feature);
+      if (name == truth) a = ModelPoint(graph, values, static_cast<int>(c), feature);
+      if (name == found) b = ModelPoint(graph, values, static_cast<int>(c), feature);
+    }
+  }
+  return a && b && (*a - *b).norm() <= 1e-9 * ModelExtent(graph);
 }
 
 }  // namespace cfuse

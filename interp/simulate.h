@@ -40,4 +40,11 @@ struct Simulation {
 // or, with a camera, no pose puts the model inside the image.
 Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options);
 
+// Whether an interpretation's label `found` for a measurement whose true label is `truth`
+// ("" for clutter) is right: both empty, or model points at one place in `values` (the true
+// configuration). Two model points can share a place, e.g. the corners a hinge joins, which no
+// data can tell apart.
+bool SameModelPlace(const ConstraintGraph& graph, const Values& values, const std::string& truth,
+                    const std::string& found);
+
 }  // namespace cfuse
