@@ -65,6 +65,12 @@ InterpretOptions Config(const std::string& name) {
     o.refine_rounds = 0;
   } else if (name == "components") {
     o.use_constraints_between_components = false;
+  } else if (name == "no-joint-compatibility") {
+    o.joint_compatibility = false;
+  } else if (name == "no-probability-order") {
+    o.probability_order = false;
+  } else if (name == "no-refinement") {
+    o.refine_rounds = 0;
   } else if (name != "improved") {
     throw std::invalid_argument("unknown configuration '" + name + "'");
   }

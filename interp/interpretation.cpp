@@ -319,6 +319,7 @@ class Interpreter {
   // match more points. Without seeds, the same from the nominal geometry (the paper's search).
   void Run() {
     Explore();
+    complete_ = best_matched_ >= 0;
     if (best_matched_ < 0 && partial_.matched > 0) {
       // The budget ended the search before a complete interpretation: the branch that matched
       // most, its remaining levels taken as unmatched.
@@ -355,6 +356,7 @@ class Interpreter {
   }
 
   SearchStats stats_;
+  bool complete_ = false;  // a complete interpretation was found (not only a partial branch)
   int best_matched_ = -1;
   double best_delta_ = 0;
   std::vector<int> best_assignment_;
@@ -1373,7 +1375,9 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
   out.assignment = search.best_assignment_;
   out.total_delta = search.best_delta_;
   std::optional<Solution> solution;
-  if (options.refine_rounds > 0) {
+  // Not for a branch the budget cut short: its estimate, from a few matches, would re-associate
+  // the rest to clutter (lamps at 30 % occlusion: 59 % of matches right without, 11 % with).
+  if (options.refine_rounds > 0 && search.complete_) {
     solution = search.Refine(&out.assignment, options.refine_rounds, &out.stats.refinements);
   }
   out.matched = 0;
