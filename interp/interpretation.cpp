@@ -38,6 +38,9 @@ constexpr double kTwoPi = 6.283185307179586;
 constexpr int kMaxSeedSets = 6;
 // P3P solutions computed in all, for image data; beyond it seed generation stops.
 constexpr long kMaxP3pCalls = 200000;
+// A later seed is searched when its support (model points with a measurement near their
+// seeded place) is at least the matches found so far less this: support counts points at the
+// nominal articulation, so a seed's interpretation can match a few more.
 constexpr int kSupportMargin = 2;
 // Of a point's unit constraint gradients, the smallest singular value that determines it.
 constexpr double kDetermined = 0.1;
@@ -124,7 +127,6 @@ struct Seed {
   int context = -1;                             // the plan it starts (Interpreter::contexts_)
   std::vector<std::pair<int, int>> assignment;  // (plan level, measurement)
   Rigid3d world_from_nominal;
-  int deepest = 0;      // the deepest level the search below it has reached
   int support = 0;      // model points with a measurement near their seeded position
   double residual = 0;  // of the seed's own geometry, normalised
 };
@@ -751,7 +753,6 @@ class Interpreter {
         ++stats_.backtracks;
         continue;
       }
-      deepest_ = std::max(deepest_, child.level);
       if (best_matched_ < 0 && child.matched > partial_.matched) {
         // The best branch so far, for when the budget ends the search before any leaf.
         partial_.matched = child.matched;
@@ -1338,7 +1339,6 @@ class Interpreter {
   } partial_;                          // the branch with the most matches, while no leaf is found
   int max_nulls_ = 0;                  // of the current round of iterative deepening
   mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
-  int deepest_ = 0;                    // the deepest level the current search has reached
   double extent_ = 1;
   double clutter3_ = 0, clutter2_ = 0;
   double gate3_ = 0, gate2_ = 0;
