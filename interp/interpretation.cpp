@@ -100,7 +100,6 @@ struct Frame {
   size_t next = 0;
   int matched = 0;
   int nulls = 0;                  // null branches taken above by choice (not forced)
-  int real_passed = 0;            // of this frame's real candidates, those that passed their tests
   bool confident_passed = false;  // one of them with p/(p+q) >= kConfident
   double delta_sum = 0;
   double nis_sum = 0;  // every δ and constraint NIS on the branch (joint compatibility)
@@ -736,7 +735,6 @@ class Interpreter {
         continue;
       }
       ++stats_.expanded;
-      if (real) ++f.real_passed;
       if (real && c.probability >= kConfident) f.confident_passed = true;
       if (child.level == levels_) {
         double trailing_nis = 0;
@@ -1104,11 +1102,7 @@ class Interpreter {
       const Constraint& c = g_.constraints[k];
       Fuse({c.residual, c.blocks, {}, c.name}, &predicted);
     }
-    Prediction p3, p2;
-    if (!index3_.empty())
-      p3 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, false), predicted);
-    if (!index2_.empty())
-      p2 = Predict(MeasurementFactor(g_, set_, ctx_->points[level], -1, true), predicted);
+    const auto [p3, p2] = PredictPoint(ctx_->points[level], predicted);
     std::vector<bool> listed(set_.points.size(), false);
     for (size_t m = 0; m < set_.points.size(); ++m) {
       if (used[m]) continue;
@@ -1151,8 +1145,8 @@ class Interpreter {
   }
 
   // Measurement m against a prediction of its model point: its δ, Lowe's probability and
-  // whether the gate is informative; nothing when outside the gate.
-  std::optional<Candidate> Score(const Prediction& p, int m, double gate_scale = 1) const {
+  // whether the gate is informative; nothing when outside the gate (unless not `gated`).
+  std::optional<Candidate> Score(const Prediction& p, int m, bool gated = true) const {
     const MeasuredPoint& z = set_.points[m];
     if (!p.valid) return std::nullopt;
     const Eigen::VectorXd d = p.mean + (z.is_3d ? Eigen::VectorXd(-z.xyz) : Eigen::VectorXd(-z.uv));
@@ -1161,7 +1155,7 @@ class Interpreter {
     const Eigen::LLT<Eigen::MatrixXd> llt(S);
     if (llt.info() != Eigen::Success) return std::nullopt;
     const double delta = d.dot(llt.solve(d));
-    if (gate_scale > 0 && !(delta <= gate_scale * (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
+    if (gated && !(delta <= (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
     if (!std::isfinite(delta)) return std::nullopt;
     const double log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
     const double log_p = -0.5 * delta - 0.5 * (d.size() * std::log(kTwoPi) + log_det);
@@ -1226,7 +1220,7 @@ class Interpreter {
       if (assignment[l] < 0) continue;
       const auto [p3, p2] = PredictPoint(contexts_[context].points[l], state);
       const std::optional<Candidate> c =
-          Score(set_.points[assignment[l]].is_3d ? p3 : p2, assignment[l], 0);
+          Score(set_.points[assignment[l]].is_3d ? p3 : p2, assignment[l], false);
       total += c ? c->log_ratio : -1e300;
     }
     return total;

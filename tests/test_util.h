@@ -6,6 +6,7 @@
 #include <string>
 
 #include "kernel/error.h"
+#include "kernel/measurements/camera.h"
 
 namespace cfuse::testing {
 
@@ -16,6 +17,17 @@ inline std::string SourceDir() {
 }
 
 inline std::string SourcePath(const std::string& relative) { return SourceDir() + "/" + relative; }
+
+// A 640 x 480 pinhole camera with an 800-pixel focal length (the benchmark's too).
+inline Camera Pinhole() {
+  Camera camera;
+  camera.fx = camera.fy = 800;
+  camera.cx = 320;
+  camera.cy = 240;
+  camera.width = 640;
+  camera.height = 480;
+  return camera;
+}
 
 // A malformed input and where and how it must be refused.
 struct BadCase {

@@ -72,13 +72,7 @@ TEST_CASE("interpret: the hinged box from 3D points and from one camera", "[inte
   const Tally points = Run(g, 20, 2, 0.1);
   INFO("3D, clutter 2, occlusion 10 %: all right in " << points.all_right << " of 20");
   CHECK(points.all_right >= 18);
-  Camera camera;
-  camera.fx = camera.fy = 800;
-  camera.cx = 320;
-  camera.cy = 240;
-  camera.width = 640;
-  camera.height = 480;
-  const Tally image = Run(g, 5, 0, 0, camera);
+  const Tally image = Run(g, 5, 0, 0, testing::Pinhole());
   INFO("2D: all right in " << image.all_right << " of 5; " << image.right << " of " << image.real
                            << " matches");
   CHECK(image.all_right >= 4);

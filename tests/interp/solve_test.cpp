@@ -65,17 +65,6 @@ MeasurementSet MeasureImage(const ConstraintGraph& g, const Values& truth, const
   return set;
 }
 
-// A 640 x 480 pinhole camera with an 800-pixel focal length.
-Camera Pinhole() {
-  Camera camera;
-  camera.fx = camera.fy = 800;
-  camera.cx = 320;
-  camera.cy = 240;
-  camera.width = 640;
-  camera.height = 480;
-  return camera;
-}
-
 Values Moved(const ConstraintGraph& g, const Rigid3d& pose) {
   Values v = g.nominal;
   for (Rigid3d& p : v.poses) p = pose * p;
@@ -120,7 +109,7 @@ TEST_CASE("solve: an occluded point is estimated through the constraints, less c
 
 TEST_CASE("solve: the hinged box from image points alone (§7), poses all over SO(3)", "[interp]") {
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  Camera camera = Pinhole();
+  Camera camera = testing::Pinhole();
   camera.distortion[0] = -0.05;
   SolveOptions options;
   options.pose_from_projections = &vision::PoseFromProjections;
@@ -179,7 +168,7 @@ TEST_CASE("solve: a supplied guess starts what no closed form can", "[interp]") 
   // The hinged box seen by a pinhole camera, with no PnP solver wired in: only a guess can
   // put it in front of the camera.
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  const Camera camera = Pinhole();
+  const Camera camera = testing::Pinhole();
   int solved = 0;
   for (unsigned seed = 1; seed <= 10; ++seed) {
     std::mt19937 rng(seed);
