@@ -1,7 +1,8 @@
 // The interpretation tree on seeded simulated data: the sweep of issue 4 (docs/benchmarks.md).
 //
 //   interpret_sweep MODEL [--camera] [--clutter 0,1,2,5] [--occlusion 0,0.1,0.3]
-//                   [--trials 200] [--configs improved,paper,components] [--verbose]
+//                   [--trials 200] [--first 0] [--configs improved,paper,components]
+//                   [--verbose]
 //
 // For every cell (clutter ratio x occluded fraction) it simulates TRIALS configurations of
 // MODEL (seeds 100, 101, ...: 3D points with 2 mm noise, or with --camera image points with
@@ -63,6 +64,7 @@ InterpretOptions Config(const std::string& name) {
     o.joint_compatibility = false;
     o.probability_order = false;
     o.refine_rounds = 0;
+    o.postpone_blind = false;
   } else if (name == "components") {
     o.use_constraints_between_components = false;
   } else if (name == "no-joint-compatibility") {
@@ -71,6 +73,8 @@ InterpretOptions Config(const std::string& name) {
     o.probability_order = false;
   } else if (name == "no-refinement") {
     o.refine_rounds = 0;
+  } else if (name == "no-postpone-blind") {
+    o.postpone_blind = false;
   } else if (name != "improved") {
     throw std::invalid_argument("unknown configuration '" + name + "'");
   }
@@ -83,13 +87,14 @@ int main(int argc, char** argv) {
   CLI::App app{"The interpretation sweep of issue 4"};
   std::string model, clutters = "0,1,2,5", occlusions = "0,0.1,0.3",
                      configs = "improved,paper,components";
-  int trials = 200;
+  int trials = 200, first = 0;
   bool camera = false, verbose = false;
   app.add_option("model", model, "model file")->required();
   app.add_flag("--camera", camera, "image points from a 640 x 480 pinhole camera");
   app.add_option("--clutter", clutters, "clutter ratios, comma-separated");
   app.add_option("--occlusion", occlusions, "occluded fractions, comma-separated");
   app.add_option("--trials", trials, "trials per cell");
+  app.add_option("--first", first, "first trial (its seed is 100 + FIRST)");
   app.add_option("--configs", configs, "improved, paper, components");
   app.add_flag("--verbose", verbose, "a line per trial");
   CLI11_PARSE(app, argc, argv);
@@ -113,7 +118,7 @@ int main(int argc, char** argv) {
         int all_right = 0, right = 0, real = 0;
         std::vector<long> expanded, evaluated;
         std::vector<double> ms;
-        for (int t = 0; t < trials; ++t) {
+        for (int t = first; t < first + trials; ++t) {
           SimulateOptions so;
           so.seed = 100 + t;
           so.clutter = clutter;

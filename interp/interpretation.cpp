@@ -101,6 +101,14 @@ struct Frame {
   int matched = 0;
   int nulls = 0;                  // null branches taken above by choice (not forced)
   bool confident_passed = false;  // one of them with p/(p+q) >= kConfident
+  // The level's point is blind: every constraint that would place it touches an occluded
+  // point, so nothing predicts it (see BuildCandidates). It is postponed to the end of the
+  // branch (or, met again there, left unmatched); this null branch is not counted.
+  bool blind = false;
+  double gate = 0;            // on a match's total δ at this level
+  std::vector<int> pending;   // plan levels still to visit after this one, in order
+  std::vector<char> done;     // per plan level: visited (matched or null) on this branch
+  std::vector<char> revisit;  // per plan level: postponed once, to be visited again
   double delta_sum = 0;
   double nis_sum = 0;  // every δ and constraint NIS on the branch (joint compatibility)
   int nis_dof = 0;
@@ -654,6 +662,9 @@ class Interpreter {
     root.state = MakePrior(g_.blocks, initial, scale);
     root.null_component.assign(g_.components.size(), false);
     root.tried.assign(g_.components.size(), 0);
+    root.done.assign(levels_, 0);
+    root.revisit.assign(levels_, 0);
+    for (int l = 1; l < levels_; ++l) root.pending.push_back(l);
     preassigned_.assign(levels_, -1);
     assignment_.assign(levels_, -1);
     if (seed) {
@@ -684,10 +695,13 @@ class Interpreter {
       const int real = c.measurement >= 0 ? 1 : 0;
       // The null branch after a confident match passed its tests is not tried: the point is
       // there (Lowe's probability that the measurement is clutter is below 1 %).
-      if (!real && (f.nulls >= max_nulls_ || (options_.probability_order && f.confident_passed)))
+      // A blind point's first null only postpones it: not counted.
+      const bool postpone = f.blind && !f.revisit[f.level];
+      if (!real && !postpone &&
+          (f.nulls >= max_nulls_ || (options_.probability_order && f.confident_passed)))
         continue;
       // Can this branch still match more points than the best so far?
-      const int can_match = f.matched + real + (levels_ - f.level - 1);
+      const int can_match = f.matched + real + static_cast<int>(f.pending.size());
       if (best_matched_ >= 0 && can_match <= best_matched_) continue;
       if (stats_.nodes >= options_.max_nodes) {
         stats_.status = SearchStats::Status::kBudget;
@@ -695,10 +709,23 @@ class Interpreter {
       }
       ++stats_.nodes;
       Frame child;
-      child.level = f.level + 1;
+      child.done = f.done;
+      child.revisit = f.revisit;
+      child.pending = f.pending;
+      if (postpone) {
+        child.pending.push_back(f.level);  // postponed to the end of the branch
+        child.revisit[f.level] = 1;
+      } else {
+        child.done[f.level] = 1;
+      }
+      const bool leaf = child.pending.empty();
+      if (!leaf) {
+        child.level = child.pending.front();
+        child.pending.erase(child.pending.begin());
+      }
       child.state = f.state;
       child.matched = f.matched + real;
-      child.nulls = f.nulls + (real ? 0 : 1);
+      child.nulls = f.nulls + (real || postpone ? 0 : 1);
       child.nis_sum = f.nis_sum;
       child.nis_dof = f.nis_dof;
       child.null_component = f.null_component;
@@ -707,6 +734,12 @@ class Interpreter {
       assignment_[f.level] = c.measurement;
       const int component = ctx_->points[f.level].component;
       if (!real && !g_.components[component].rigid) child.null_component[component] = true;
+      if (real && f.revisit[f.level]) {
+        // A postponed point matched: its constraints waiting on it are its own now.
+        child.null_component[component] = false;
+        for (int k : f.own)
+          child.deferred.erase(std::find(child.deferred.begin(), child.deferred.end(), k));
+      }
       double delta = 0;  // the match's: its own NIS and that of the constraints placing it
       if (real && preassigned_[f.level] < 0) {
         const bool image = !set_.points[c.measurement].is_3d;
@@ -730,13 +763,13 @@ class Interpreter {
       // to move (both vanish for a perfect match); the null branch scores 0.
       if (real) delta += own_nis;
       child.delta_sum = f.delta_sum + delta;
-      if (!JointlyCompatible(child) || (real && delta > ctx_->level_gate[f.level])) {
+      if (!JointlyCompatible(child) || (real && delta > f.gate)) {
         ++stats_.backtracks;
         continue;
       }
       ++stats_.expanded;
       if (real && c.probability >= kConfident) f.confident_passed = true;
-      if (child.level == levels_) {
+      if (leaf) {
         double trailing_nis = 0;
         if (FuseConstraints(ctx_->plan.trailing, &child, &trailing_nis) && FuseRemaining(&child) &&
             JointlyCompatible(child)) {
@@ -758,7 +791,7 @@ class Interpreter {
         partial_.assignment.assign(levels_, -1);
         for (int l = 0; l < levels_; ++l) {
           partial_.assignment[l] = preassigned_[l] >= 0 ? preassigned_[l]
-                                   : l < child.level    ? assignment_[l]
+                                   : child.done[l]      ? assignment_[l]
                                                         : -1;
         }
         partial_.mean = child.state.mean;
@@ -825,10 +858,11 @@ class Interpreter {
       for (int k : f->deferred) {
         const std::vector<int>& comps = constraint_components_[k];
         if (std::find(comps.begin(), comps.end(), static_cast<int>(n)) == comps.end()) continue;
-        const bool others_matched = std::all_of(comps.begin(), comps.end(), [&](int c) {
-          return c == static_cast<int>(n) || IsMatched(*f, c);
+        // Its other points matched, or occluded and placed already.
+        const bool others_known = std::all_of(comps.begin(), comps.end(), [&](int c) {
+          return c == static_cast<int>(n) || !f->null_component[c];
         });
-        if (others_matched) ready.push_back(k);
+        if (others_known) ready.push_back(k);
       }
       // Tried once per set of ready constraints: the attempt below fails the same way until
       // another neighbour is matched.
@@ -1001,7 +1035,7 @@ class Interpreter {
   bool IsMatched(const Frame& f, int c) const {
     for (int l = 0; l < levels_; ++l) {
       if (ctx_->points[l].component != c) continue;
-      if (preassigned_[l] >= 0 || (l < f.level && assignment_[l] >= 0)) return true;
+      if (preassigned_[l] >= 0 || (f.done[l] && assignment_[l] >= 0)) return true;
     }
     return false;
   }
@@ -1013,10 +1047,28 @@ class Interpreter {
     const int component = ctx_->points[level].component;
     f->own.clear();
     std::vector<int> pre;
-    for (int k : ctx_->plan.levels[level].constraints) {
-      if (!use_[k]) continue;
-      const std::vector<int>& comps = constraint_components_[k];
-      (std::find(comps.begin(), comps.end(), component) != comps.end() ? f->own : pre).push_back(k);
+    if (!f->revisit[level]) {
+      for (int k : ctx_->plan.levels[level].constraints) {
+        if (!use_[k]) continue;
+        const std::vector<int>& comps = constraint_components_[k];
+        (std::find(comps.begin(), comps.end(), component) != comps.end() ? f->own : pre)
+            .push_back(k);
+      }
+      f->gate = ctx_->level_gate[level];
+    } else {
+      // A postponed point: its own constraints are those still waiting on it alone.
+      int rows = image_ ? 2 : 3;
+      for (int k : f->deferred) {
+        const std::vector<int>& comps = constraint_components_[k];
+        if (std::find(comps.begin(), comps.end(), component) == comps.end()) continue;
+        if (std::any_of(comps.begin(), comps.end(),
+                        [&](int c) { return c != component && f->null_component[c]; })) {
+          continue;
+        }
+        f->own.push_back(k);
+        rows += g_.constraints[k].residual->dimension();
+      }
+      f->gate = Gate(rows);
     }
     double nis = 0;
     if (!FuseConstraints(pre, f, &nis)) return false;
@@ -1086,15 +1138,27 @@ class Interpreter {
     const int level = f->level;
     f->candidates.clear();
     f->best3.clear();
+    f->blind = false;
     if (preassigned_[level] >= 0) {
       f->candidates = {{preassigned_[level], 0, 1, true}};
       f->best3 = {{preassigned_[level], 0}};
       return;
     }
+    if (options_.postpone_blind &&
+        (f->revisit[level] ? f->null_component[ctx_->points[level].component] && f->own.empty()
+                           : Blind(*f))) {
+      // Every measurement would pass its gate and no constraint could test it: a branch per
+      // measurement, each searched below, for a point that predicts nothing. It is taken as
+      // unmatched here, placed once its neighbours are (FuseDeferred), and re-associated under
+      // the interpretation's estimate (Refine).
+      f->blind = true;
+      f->candidates = {Candidate{-1, 0, 0, true}};
+      return;
+    }
     std::vector<bool> used = duplicate_;
     for (int l = 0; l < levels_; ++l) {
       if (preassigned_[l] >= 0) used[preassigned_[l]] = true;
-      if (l < level && assignment_[l] >= 0) used[assignment_[l]] = true;
+      if (f->done[l] && assignment_[l] >= 0) used[assignment_[l]] = true;
     }
     // (A): the linear prediction.
     GaussianState predicted = f->state;
@@ -1142,6 +1206,18 @@ class Interpreter {
     for (const Candidate& x : all) {
       if (x.measurement >= 0 && f->best3.size() < 3) f->best3.push_back({x.measurement, x.delta});
     }
+  }
+
+  // Whether f's level is a single point whose every own constraint (those linking it to the
+  // points matched before it) waits on an occluded point: its prediction is the vague prior.
+  bool Blind(const Frame& f) const {
+    const int component = ctx_->points[f.level].component;
+    if (g_.components[component].rigid || f.own.empty()) return false;
+    return std::all_of(f.own.begin(), f.own.end(), [&](int k) {
+      const std::vector<int>& comps = constraint_components_[k];
+      return std::any_of(comps.begin(), comps.end(),
+                         [&](int c) { return c != component && f.null_component[c]; });
+    });
   }
 
   // Measurement m against a prediction of its model point: its δ, Lowe's probability and

@@ -86,6 +86,11 @@ struct InterpretOptions {
   long max_nodes = 20000;  // tree nodes (tentative fusions, null branches included)
   bool joint_compatibility = true;
   bool probability_order = true;
+  // A single point whose every constraint to the points matched before it waits on an
+  // occluded point predicts nothing (every measurement passes its gate): it is left unmatched
+  // in the tree, placed through its constraints, and re-associated afterwards (refine_rounds),
+  // instead of a branch per measurement.
+  bool postpone_blind = true;
   // Off: constraints between components are ignored and each component is interpreted alone
   // (the paper's divide and conquer; a baseline).
   bool use_constraints_between_components = true;
