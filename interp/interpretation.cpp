@@ -344,23 +344,15 @@ class Interpreter {
     std::vector<Seed> seeds = Seeds();
     stats_.seeds = static_cast<int>(seeds.size());
     if (seeds.empty()) {
-      for (int nulls = 0; nulls <= levels_ && !found_; ++nulls) {
-        max_nulls_ = nulls;
-        Search(nullptr);
-        if (stats_.status == SearchStats::Status::kBudget) return;
-      }
+      Search(nullptr);
       return;
     }
     for (Seed& seed : seeds) {
       if (best_matched_ >= 0 && seed.support + kSupportMargin < best_matched_) break;
       ++stats_.seeds_tried;
       found_ = false;
-      for (int nulls = 0; nulls <= levels_ && !found_; ++nulls) {
-        if (best_matched_ >= 0 && levels_ - nulls <= best_matched_) break;
-        max_nulls_ = nulls;
-        Search(&seed);
-        if (stats_.status == SearchStats::Status::kBudget) return;
-      }
+      Search(&seed);
+      if (stats_.status == SearchStats::Status::kBudget) return;
     }
   }
 
@@ -683,8 +675,45 @@ class Interpreter {
       ++stats_.backtracks;
       return;
     }
+    // Iterative deepening on null branches without repeating a round's work: round k resumes
+    // only the null branches round k-1 could not take (each saved with its frame), since every
+    // other branch below them was searched then. When too many are waiting to be kept, the next
+    // round searches again from the root.
+    std::vector<Resume> roots(1);
+    roots[0].frame = root;
+    roots[0].assignment = assignment_;
+    for (int nulls = 0; nulls <= levels_ && !found_ && !roots.empty(); ++nulls) {
+      if (best_matched_ >= 0 && levels_ - nulls <= best_matched_) break;
+      max_nulls_ = nulls;
+      waiting_.clear();
+      overflow_ = false;
+      for (Resume& r : roots) {
+        SearchBelow(std::move(r));
+        if (found_ || stats_.status == SearchStats::Status::kBudget) return;
+      }
+      if (overflow_) {
+        roots.assign(1, Resume{root, {}, std::vector<int>(levels_, -1)});
+      } else {
+        roots = std::move(waiting_);
+      }
+      waiting_.clear();
+    }
+  }
+
+  // A frame whose remaining candidates are to be searched, with the branch above it.
+  struct Resume {
+    Frame frame;
+    std::vector<std::pair<int, std::vector<std::pair<int, double>>>> trace;  // (level, best3)
+    std::vector<int> assignment;
+  };
+  static constexpr size_t kMaxWaiting = 1024;
+
+  // Depth first below r's frame, within the round's null branches.
+  void SearchBelow(Resume r) {
+    assignment_ = r.assignment;
+    trace_prefix_ = std::move(r.trace);
     std::vector<Frame> stack;
-    stack.push_back(std::move(root));
+    stack.push_back(std::move(r.frame));
     while (!stack.empty()) {
       Frame& f = stack.back();
       if (f.next == f.candidates.size()) {
@@ -697,9 +726,22 @@ class Interpreter {
       // there (Lowe's probability that the measurement is clutter is below 1 %).
       // A blind point's first null only postpones it: not counted.
       const bool postpone = f.blind && !f.revisit[f.level];
-      if (!real && !postpone &&
-          (f.nulls >= max_nulls_ || (options_.probability_order && f.confident_passed)))
+      if (!real && !postpone && options_.probability_order && f.confident_passed) continue;
+      if (!real && !postpone && f.nulls >= max_nulls_) {
+        // For the next round, unless too many wait already.
+        if (waiting_.size() >= kMaxWaiting) {
+          overflow_ = true;
+        } else if (!overflow_) {
+          Resume w{f, trace_prefix_, assignment_};
+          w.frame.candidates = {c};
+          w.frame.next = 0;
+          for (const Frame& above : stack) {
+            if (&above != &f) w.trace.push_back({above.level, above.best3});
+          }
+          waiting_.push_back(std::move(w));
+        }
         continue;
+      }
       // Can this branch still match more points than the best so far?
       const int can_match = f.matched + real + static_cast<int>(f.pending.size());
       if (best_matched_ >= 0 && can_match <= best_matched_) continue;
@@ -1385,6 +1427,7 @@ class Interpreter {
       if (preassigned_[l] >= 0) best_assignment_[l] = preassigned_[l];
     }
     best_trace_.assign(levels_, {});
+    for (const auto& [level, best3] : trace_prefix_) best_trace_[level] = best3;
     for (const Frame& frame : path) best_trace_[frame.level] = frame.best3;
   }
 
@@ -1406,8 +1449,11 @@ class Interpreter {
     int matched = 0, context = 0;
     std::vector<int> assignment;
     Values mean;
-  } partial_;                          // the branch with the most matches, while no leaf is found
-  int max_nulls_ = 0;                  // of the current round of iterative deepening
+  } partial_;                    // the branch with the most matches, while no leaf is found
+  int max_nulls_ = 0;            // of the current round of iterative deepening
+  std::vector<Resume> waiting_;  // null branches the round could not take
+  bool overflow_ = false;        // more than kMaxWaiting of them
+  std::vector<std::pair<int, std::vector<std::pair<int, double>>>> trace_prefix_;
   mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
   double extent_ = 1;
   double clutter3_ = 0, clutter2_ = 0;
