@@ -125,8 +125,9 @@ struct Frame {
 // A fusion plan and what the search needs of it.
 struct Context {
   FusionPlan plan;
-  std::vector<ModelPointRef> points;  // per level
-  std::vector<double> level_gate;     // per level: the gate on a match's total δ
+  std::vector<ModelPointRef> points;     // per level
+  std::vector<double> level_gate;        // per level: the gate on a match's total δ
+  std::vector<Eigen::Vector3d> nominal;  // per level: the point in the nominal geometry
 };
 
 // A seed hypothesis: measurements for some plan levels, and the pose they give the model.
@@ -138,21 +139,41 @@ struct Seed {
   double residual = 0;  // of the seed's own geometry, normalised
 };
 
-// Measurements hashed on a uniform grid, for "is there one within r of x" queries.
+// Measurements binned on a uniform grid over their bounding box, for "is there one within r
+// of x" queries (r at most a cell): the 27 (or 9) cells around x, each a contiguous run.
 class Grid {
  public:
-  Grid(double cell, int dims) : cell_(cell), dims_(dims) {}
-  void Add(const Eigen::Vector3d& x, int id) { cells_[Key(x)].push_back({x, id}); }
-  // Whether a point not in `exclude` lies within r (<= cell) of x.
+  Grid(double cell, int dims, const std::vector<std::pair<Eigen::Vector3d, int>>& points)
+      : cell_(cell), dims_(dims) {
+    Eigen::AlignedBox3d box;
+    for (const auto& [x, id] : points) box.extend(x);
+    origin_ = box.isEmpty() ? Eigen::Vector3d::Zero() : box.min();
+    const Eigen::Vector3d sizes =
+        box.isEmpty() ? Eigen::Vector3d(Eigen::Vector3d::Zero()) : Eigen::Vector3d(box.sizes());
+    for (int a = 0; a < 3; ++a) {
+      // At most 64 cells a side: a finer grid only costs memory.
+      cells_[a] = std::clamp(static_cast<int>(sizes[a] / cell_) + 1, 1, 64);
+      size_[a] = std::max(cell_, sizes[a] / cells_[a] + 1e-12);
+    }
+    std::vector<std::vector<std::pair<Eigen::Vector3d, int>>> bins(static_cast<size_t>(cells_[0]) *
+                                                                   cells_[1] * cells_[2]);
+    for (const auto& p : points) bins[Index(Cell(p.first))].push_back(p);
+    start_.push_back(0);
+    for (const auto& bin : bins) {
+      entries_.insert(entries_.end(), bin.begin(), bin.end());
+      start_.push_back(static_cast<int>(entries_.size()));
+    }
+  }
+  // Whether a point not in `exclude` lies within r (<= a cell) of x.
   bool AnyWithin(const Eigen::Vector3d& x, double r, const std::vector<int>& exclude) const {
     const Eigen::Vector3i c = Cell(x);
     const int dz = dims_ == 3 ? 1 : 0;
-    for (int i = -1; i <= 1; ++i) {
-      for (int j = -1; j <= 1; ++j) {
-        for (int k = -dz; k <= dz; ++k) {
-          const auto it = cells_.find(CellKey(c + Eigen::Vector3i(i, j, k)));
-          if (it == cells_.end()) continue;
-          for (const auto& [y, id] : it->second) {
+    for (int i = std::max(c.x() - 1, 0); i <= std::min(c.x() + 1, cells_[0] - 1); ++i) {
+      for (int j = std::max(c.y() - 1, 0); j <= std::min(c.y() + 1, cells_[1] - 1); ++j) {
+        for (int k = std::max(c.z() - dz, 0); k <= std::min(c.z() + dz, cells_[2] - 1); ++k) {
+          const size_t b = Index({i, j, k});
+          for (int e = start_[b]; e < start_[b + 1]; ++e) {
+            const auto& [y, id] = entries_[e];
             if ((y - x).squaredNorm() <= r * r &&
                 std::find(exclude.begin(), exclude.end(), id) == exclude.end()) {
               return true;
@@ -165,18 +186,29 @@ class Grid {
   }
 
  private:
+  // The cell of x, clamped to the grid (a point outside is at least as far from every
+  // measurement as the border cell's neighbours are).
   Eigen::Vector3i Cell(const Eigen::Vector3d& x) const {
-    return (x / cell_).array().floor().cast<int>();
+    Eigen::Vector3i c;
+    for (int a = 0; a < 3; ++a) {
+      const double v = std::floor((x[a] - origin_[a]) / size_[a]);
+      c[a] = static_cast<int>(std::clamp(v, -1.0, static_cast<double>(cells_[a])));
+    }
+    return c;
   }
-  static long long CellKey(const Eigen::Vector3i& c) {
-    return (static_cast<long long>(c.x()) * 73856093LL) ^
-           (static_cast<long long>(c.y()) * 19349663LL) ^
-           (static_cast<long long>(c.z()) * 83492791LL);
+  size_t Index(const Eigen::Vector3i& c) const {
+    return (static_cast<size_t>(std::clamp(c.z(), 0, cells_[2] - 1)) * cells_[1] +
+            std::clamp(c.y(), 0, cells_[1] - 1)) *
+               cells_[0] +
+           std::clamp(c.x(), 0, cells_[0] - 1);
   }
-  long long Key(const Eigen::Vector3d& x) const { return CellKey(Cell(x)); }
   double cell_;
   int dims_;
-  std::unordered_map<long long, std::vector<std::pair<Eigen::Vector3d, int>>> cells_;
+  Eigen::Vector3d origin_;
+  std::array<int, 3> cells_{1, 1, 1};
+  Eigen::Vector3d size_;
+  std::vector<std::pair<Eigen::Vector3d, int>> entries_;  // bin by bin
+  std::vector<int> start_;                                // per bin: its first entry
 };
 
 double LargestVariance(const Eigen::MatrixXd& cov) {
@@ -370,6 +402,7 @@ class Interpreter {
     c.plan = std::move(plan);
     for (const PlanLevel& l : c.plan.levels) {
       c.points.push_back({l.component, l.feature});
+      c.nominal.push_back(NominalWorld(g_, c.points.back()));
       // A match's δ (its NIS plus that of the constraints placing it) is gated at the
       // chi-square quantile for the measurement's rows and those constraints' rows.
       int rows = image_ ? 2 : 3;
@@ -508,11 +541,17 @@ class Interpreter {
     const double d01 = (model[0] - model[1]).norm(), d12 = (model[1] - model[2]).norm(),
                  d02 = (model[0] - model[2]).norm();
     const int n = static_cast<int>(index3_.size());
-    std::vector<double> sigma2(n);
-    for (int i = 0; i < n; ++i) sigma2[i] = LargestVariance(set_.points[index3_[i]].cov3);
     auto x = [&](int i) -> const Eigen::Vector3d& { return set_.points[index3_[i]].xyz; };
+    if (distance_.rows() != n) {
+      // Shared by every seed set: the measurements' largest variances and pairwise distances.
+      sigma2_.resize(n);
+      for (int i = 0; i < n; ++i) sigma2_[i] = LargestVariance(set_.points[index3_[i]].cov3);
+      distance_.resize(n, n);
+      for (int j = 0; j < n; ++j)
+        for (int i = 0; i < n; ++i) distance_(i, j) = (x(i) - x(j)).norm();
+    }
     auto fits = [&](int i, int j, double d, double* r2) {
-      const double e = (x(i) - x(j)).norm() - d, var = sigma2[i] + sigma2[j];
+      const double e = distance_(i, j) - d, var = sigma2_[i] + sigma2_[j];
       *r2 += e * e / var;
       return e * e <= k * k * var;
     };
@@ -599,22 +638,24 @@ class Interpreter {
   int Support(const Seed& seed, bool image) const {
     std::vector<int> exclude;
     for (const auto& [level, m] : seed.assignment) exclude.push_back(m);
+    std::vector<std::pair<Eigen::Vector3d, int>> points;
     if (!image) {
       if (!grid3_) {
-        grid3_.emplace(0.05 * extent_, 3);
-        for (int i : index3_) grid3_->Add(set_.points[i].xyz, i);
+        for (int i : index3_) points.push_back({set_.points[i].xyz, i});
+        grid3_.emplace(0.05 * extent_, 3, points);
       }
     } else if (!grid2_) {
       const Camera& c = *set_.camera;
       diagonal_ = c.width > 0 ? std::hypot(c.width, c.height) : 1000.0;
-      grid2_.emplace(0.03 * diagonal_, 2);
-      for (int i : index2_)
-        grid2_->Add(Eigen::Vector3d(set_.points[i].uv.x(), set_.points[i].uv.y(), 0), i);
+      for (int i : index2_) {
+        points.push_back({Eigen::Vector3d(set_.points[i].uv.x(), set_.points[i].uv.y(), 0), i});
+      }
+      grid2_.emplace(0.03 * diagonal_, 2, points);
     }
+    const Context& ctx = contexts_[seed.context];
     int support = 0;
     for (int l = 0; l < levels_; ++l) {
-      const Eigen::Vector3d x =
-          seed.world_from_nominal * NominalWorld(g_, contexts_[seed.context].points[l]);
+      const Eigen::Vector3d x = seed.world_from_nominal * ctx.nominal[l];
       if (!image) {
         support += grid3_->AnyWithin(x, 0.05 * extent_, exclude) ? 1 : 0;
       } else if (x.z() > 0) {
@@ -1227,8 +1268,13 @@ class Interpreter {
         return a.probability > b.probability;
       });
     }
-    // (B): the exact locus of a single point's own constraints.
-    std::vector<Candidate> locus = LocusCandidates(*f, used, listed);
+    // (B): the exact locus of a single point's own constraints; not needed where a candidate
+    // is confident (p/(p+q) >= kConfident under a prediction that says something): the
+    // linearisation the locus corrects is then good.
+    const bool confident = options_.probability_order && !c.empty() && c[0].informative &&
+                           c[0].probability >= kConfident;
+    std::vector<Candidate> locus;
+    if (!confident) locus = LocusCandidates(*f, used, listed);
     // The null branch: last (the paper), or before the first candidate more likely clutter
     // (where the prediction is sharp enough to say so).
     size_t at = c.size();
@@ -1267,22 +1313,33 @@ class Interpreter {
   std::optional<Candidate> Score(const Prediction& p, int m, bool gated = true) const {
     const MeasuredPoint& z = set_.points[m];
     if (!p.valid) return std::nullopt;
-    const Eigen::VectorXd d = p.mean + (z.is_3d ? Eigen::VectorXd(-z.xyz) : Eigen::VectorXd(-z.uv));
-    const Eigen::MatrixXd S =
-        p.covariance + (z.is_3d ? Eigen::MatrixXd(z.cov3) : Eigen::MatrixXd(z.cov2));
-    const Eigen::LLT<Eigen::MatrixXd> llt(S);
-    if (llt.info() != Eigen::Success) return std::nullopt;
-    const double delta = d.dot(llt.solve(d));
+    // Fixed sizes: this runs for every measurement at every level.
+    double delta = 0, log_det = 0;
+    if (z.is_3d) {
+      if (p.mean.size() != 3) return std::nullopt;
+      const Eigen::Vector3d d = Eigen::Vector3d(p.mean) - z.xyz;
+      const Eigen::LLT<Eigen::Matrix3d> llt(Eigen::Matrix3d(p.covariance) + z.cov3);
+      if (llt.info() != Eigen::Success) return std::nullopt;
+      delta = d.dot(llt.solve(d));
+      log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
+    } else {
+      if (p.mean.size() != 2) return std::nullopt;
+      const Eigen::Vector2d d = Eigen::Vector2d(p.mean) - z.uv;
+      const Eigen::LLT<Eigen::Matrix2d> llt(Eigen::Matrix2d(p.covariance) + z.cov2);
+      if (llt.info() != Eigen::Success) return std::nullopt;
+      delta = d.dot(llt.solve(d));
+      log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
+    }
     if (gated && !(delta <= (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
     if (!std::isfinite(delta)) return std::nullopt;
-    const double log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
-    const double log_p = -0.5 * delta - 0.5 * (d.size() * std::log(kTwoPi) + log_det);
+    const int dims = z.is_3d ? 3 : 2;
+    const double log_p = -0.5 * delta - 0.5 * (dims * std::log(kTwoPi) + log_det);
     const double q = z.is_3d ? clutter3_ : clutter2_;
     // p / (p + q), from log p without overflow.
     const double probability = 1 / (1 + q * std::exp(-log_p));
     // Clutter points expected inside the gate: q times the gate ellipsoid's volume. Where it
     // is 1 or more the prediction says little, and p/(p+q) cannot tell a match from clutter.
-    const double dim = static_cast<double>(d.size());
+    const double dim = static_cast<double>(dims);
     const double gate = z.is_3d ? gate3_ : gate2_;
     const double unit_ball = dim == 3 ? 4.18879020478639 : 3.14159265358979;
     const double in_gate = q * unit_ball * std::pow(gate, dim / 2) * std::exp(0.5 * log_det);
@@ -1466,6 +1523,8 @@ class Interpreter {
   // within 20 do not (the point is determined only at second order).
   FusionOptions joint_fusion_{.max_iterations = 20};
   mutable std::optional<Grid> grid3_, grid2_;
+  mutable Eigen::MatrixXd distance_;  // between 3D measurements (index3_), for seeds
+  mutable Eigen::VectorXd sigma2_;    // their largest variances
   mutable double diagonal_ = 1000;
 };
 
