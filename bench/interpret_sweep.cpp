@@ -65,6 +65,7 @@ InterpretOptions Config(const std::string& name) {
     o.probability_order = false;
     o.refine_rounds = 0;
     o.postpone_blind = false;
+    o.free_evidenced_nulls = 0;
   } else if (name == "components") {
     o.use_constraints_between_components = false;
   } else if (name == "no-joint-compatibility") {
@@ -75,6 +76,8 @@ InterpretOptions Config(const std::string& name) {
     o.refine_rounds = 0;
   } else if (name == "no-postpone-blind") {
     o.postpone_blind = false;
+  } else if (name == "no-free-nulls") {
+    o.free_evidenced_nulls = 0;
   } else if (name != "improved") {
     throw std::invalid_argument("unknown configuration '" + name + "'");
   }

@@ -105,6 +105,11 @@ struct Frame {
   // point, so nothing predicts it (see BuildCandidates). It is postponed to the end of the
   // branch (or, met again there, left unmatched); this null branch is not counted.
   bool blind = false;
+  // No measurement near a prediction sharp enough to expect none there by chance: evidence
+  // that the point is occluded. Such nulls are free on a branch, up to
+  // InterpretOptions::free_evidenced_nulls.
+  bool evidenced_null = false;
+  int free_nulls = 0;         // taken above
   double gate = 0;            // on a match's total δ at this level
   std::vector<int> pending;   // plan levels still to visit after this one, in order
   std::vector<char> done;     // per plan level: visited (matched or null) on this branch
@@ -763,12 +768,15 @@ class Interpreter {
       }
       const Candidate c = f.candidates[f.next++];
       const int real = c.measurement >= 0 ? 1 : 0;
-      // The null branch after a confident match passed its tests is not tried: the point is
-      // there (Lowe's probability that the measurement is clutter is below 1 %).
       // A blind point's first null only postpones it: not counted.
       const bool postpone = f.blind && !f.revisit[f.level];
-      if (!real && !postpone && options_.probability_order && f.confident_passed) continue;
-      if (!real && !postpone && f.nulls >= max_nulls_) {
+      const bool free_null =
+          !real && f.evidenced_null && f.free_nulls < options_.free_evidenced_nulls;
+      // Once a confident match (p/(p+q) >= kConfident) passed its tests, no other branch is
+      // tried at its level, the null included: the point is there (Lowe's probability that
+      // the measurement is clutter is below 1 %), so a failure below lies elsewhere.
+      if (!postpone && options_.probability_order && f.confident_passed) continue;
+      if (!real && !postpone && !free_null && f.nulls >= max_nulls_) {
         // For the next round, unless too many wait already.
         if (waiting_.size() >= kMaxWaiting) {
           overflow_ = true;
@@ -808,7 +816,8 @@ class Interpreter {
       }
       child.state = f.state;
       child.matched = f.matched + real;
-      child.nulls = f.nulls + (real || postpone ? 0 : 1);
+      child.nulls = f.nulls + (real || postpone || free_null ? 0 : 1);
+      child.free_nulls = f.free_nulls + (free_null ? 1 : 0);
       child.nis_sum = f.nis_sum;
       child.nis_dof = f.nis_dof;
       child.null_component = f.null_component;
@@ -1284,6 +1293,18 @@ class Interpreter {
           at = i;
           break;
         }
+      }
+    }
+    f->evidenced_null = false;
+    if (c.empty() && locus.empty() && options_.free_evidenced_nulls > 0) {
+      // Whether the gate would hold less than one clutter point on average (Score's flag, for
+      // any measurement of the data's kind: they share one noise level in practice).
+      for (size_t m = 0; m < set_.points.size(); ++m) {
+        if (duplicate_[m]) continue;
+        const std::optional<Candidate> s =
+            Score(set_.points[m].is_3d ? p3 : p2, static_cast<int>(m), false);
+        f->evidenced_null = s && s->informative;
+        break;
       }
     }
     c.insert(c.begin() + static_cast<long>(at), Candidate{-1, 0, 0, true});
