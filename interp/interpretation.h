@@ -61,8 +61,8 @@
 //  - Lowe's match probability p/(p+q) (Lowe 1992, eq. 3): p the Gaussian density of the
 //    innovation, q the clutter density (measurements per volume of their bounding box, or per
 //    image area). Candidates are tried by decreasing probability, the null branch before any
-//    candidate more likely clutter than the point (p/(p+q) < 1/2); once a candidate with
-//    p/(p+q) >= 0.99 passed its tests no other branch is tried at its level, null included;
+//    candidate more likely clutter than the point (p/(p+q) < 1/2), and not at all once a
+//    candidate with p/(p+q) >= 0.99 passed its tests;
 //  - re-association (refine_rounds): the interpretation's own estimate, from all its matches
 //    and every constraint, predicts every point far better than the tree did when matching it
 //    (an occluded point's neighbours on both sides). Measurements are re-associated to those

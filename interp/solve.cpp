@@ -2,7 +2,9 @@
 
 #include <fmt/format.h>
 
+#include <Eigen/Cholesky>
 #include <Eigen/Geometry>
+#include <algorithm>
 
 #include "interp/closed_form_pose.h"
 #include "kernel/evaluate.h"
@@ -29,6 +31,108 @@ struct Correspondences {
     }
   }
 };
+
+// Moves single point `block` to where constraints `list` hold best, everything else fixed:
+// Levenberg-Marquardt on the sum of their squared residuals.
+void PlacePoint(const ConstraintGraph& g, const std::vector<int>& list, int block, Values* x) {
+  Eigen::Vector3d& p = x->points[g.blocks[block].index];
+  auto evaluate = [&](Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
+    std::vector<double> rows;
+    std::vector<Eigen::RowVector3d> gradients;
+    Eigen::VectorXd r;
+    Eigen::MatrixXd H;
+    for (int k : list) {
+      const Constraint& c = g.constraints[k];
+      EvaluateResidual(*c.residual, g.blocks, c.blocks, *x, &r, jacobian ? &H : nullptr);
+      for (int i = 0; i < r.size(); ++i) rows.push_back(r(i));
+      if (!jacobian) continue;
+      int column = 0;
+      for (int b : c.blocks) {
+        if (b == block) {
+          for (int i = 0; i < r.size(); ++i) gradients.push_back(H.block<1, 3>(i, column));
+        }
+        column += TangentDim(g.blocks[b].kind);
+      }
+    }
+    *residual = Eigen::Map<Eigen::VectorXd>(rows.data(), static_cast<long>(rows.size()));
+    if (jacobian) {
+      jacobian->resize(static_cast<long>(gradients.size()), 3);
+      for (size_t i = 0; i < gradients.size(); ++i) {
+        jacobian->row(static_cast<long>(i)) = gradients[i];
+      }
+    }
+  };
+  Eigen::VectorXd r, next;
+  Eigen::MatrixXd J;
+  evaluate(&r, &J);
+  if (!r.allFinite() || !J.allFinite() || J.rows() != r.size()) return;
+  double cost = r.squaredNorm(), lambda = 1e-3;
+  for (int it = 0; it < 50 && cost > 0; ++it) {
+    const Eigen::Matrix3d JtJ = J.transpose() * J;
+    const Eigen::Vector3d step =
+        -(JtJ + lambda * Eigen::Matrix3d(JtJ.diagonal().cwiseMax(1e-12).asDiagonal()))
+             .ldlt()
+             .solve(J.transpose() * r);
+    const Eigen::Vector3d before = p;
+    p += step;
+    evaluate(&next, nullptr);
+    if (next.allFinite() && next.squaredNorm() < cost) {
+      cost = next.squaredNorm();
+      lambda = std::max(lambda / 10, 1e-12);
+      evaluate(&r, &J);
+      if (step.norm() <= 1e-12 * (1 + p.norm())) break;
+    } else {
+      p = before;
+      lambda *= 10;
+      if (lambda > 1e12) break;
+    }
+  }
+}
+
+// Unmeasured single points start where the rigid guess puts them, which is off by however far
+// the articulation moved them, and a constraint linearised there can throw the sequential
+// pass far along a direction it leaves free. So each is first placed where its constraints to
+// known points (measured, or placed before it) hold best, most constrained first.
+void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured, Values* x) {
+  std::vector<std::vector<int>> components_of(g.constraints.size());
+  for (size_t k = 0; k < g.constraints.size(); ++k) {
+    for (int b : g.constraints[k].blocks) {
+      for (size_t c = 0; c < g.components.size(); ++c) {
+        if (g.components[c].block == b) components_of[k].push_back(static_cast<int>(c));
+      }
+    }
+  }
+  std::vector<bool> known = measured;
+  while (true) {
+    int best = -1;
+    std::vector<int> best_list;
+    int best_rows = 0;
+    for (size_t c = 0; c < g.components.size(); ++c) {
+      if (known[c] || g.components[c].rigid) continue;
+      std::vector<int> list;
+      int rows = 0;
+      for (size_t k = 0; k < g.constraints.size(); ++k) {
+        const std::vector<int>& comps = components_of[k];
+        if (std::find(comps.begin(), comps.end(), static_cast<int>(c)) == comps.end()) continue;
+        const bool others_known = std::all_of(comps.begin(), comps.end(), [&](int n) {
+          return n == static_cast<int>(c) || known[n];
+        });
+        if (!others_known) continue;
+        list.push_back(static_cast<int>(k));
+        rows += g.constraints[k].residual->dimension();
+      }
+      if (rows > best_rows) {
+        best = static_cast<int>(c);
+        best_rows = rows;
+        best_list = std::move(list);
+      }
+    }
+    // Fewer than three rows leave the point a curve or a surface: its guess stays.
+    if (best < 0 || best_rows < 3) return;
+    PlacePoint(g, best_list, g.components[best].block, x);
+    known[best] = true;
+  }
+}
 
 // measured_from_model in closed form: absolute orientation from 3D points, else from image
 // points (the PnP solver for a pinhole camera; OrthographicPose, with the model points'
@@ -214,7 +318,16 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     ClosedFormPose(k, set, options, MeanDepth(in_world), &current);
   }
 
-  if (options.guess) ApplyGuess(graph, *options.guess, &initial);
+  if (options.guess) {
+    ApplyGuess(graph, *options.guess, &initial);
+  } else {
+    std::vector<bool> measured(graph.components.size(), false);
+    for (const ResolvedLabel& r : solution.labels) measured[r.component] = true;
+    for (size_t c = 0; c < graph.components.size(); ++c) {
+      if (graph.components[c].rigid) measured[c] = true;  // placed by their closed forms
+    }
+    PlaceUnmeasured(graph, measured, &initial);
+  }
   ResetSlacks(graph, &initial);
 
   // 3. The prior, and 4. the factors.
