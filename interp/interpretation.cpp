@@ -622,6 +622,11 @@ class Interpreter {
     const Eigen::Vector3d fourth = g_.components[comp].points[s[3].feature].position;
     const int n = static_cast<int>(index2_.size());
     const double k2 = std::sqrt(gate2_);
+    if (sigma2_image_.size() != n) {
+      // Computed once: the check below runs for every P3P solution.
+      sigma2_image_.resize(n);
+      for (int m = 0; m < n; ++m) sigma2_image_[m] = LargestVariance(set_.points[index2_[m]].cov2);
+    }
     for (int i = 0; i < n; ++i)
       for (int j = 0; j < n; ++j)
         for (int l = 0; l < n; ++l) {
@@ -639,9 +644,10 @@ class Interpreter {
             double best = 0;
             for (int m = 0; m < n; ++m) {
               if (m == i || m == j || m == l) continue;
-              const MeasuredPoint& z = set_.points[index2_[m]];
-              const double d = (z.uv - uv).norm() / std::sqrt(LargestVariance(z.cov2));
-              if (d <= k2 && (match < 0 || d < best)) {
+              const double d2 = (set_.points[index2_[m]].uv - uv).squaredNorm() / sigma2_image_[m];
+              if (d2 > k2 * k2) continue;
+              const double d = std::sqrt(d2);
+              if (match < 0 || d < best) {
                 match = m;
                 best = d;
               }
@@ -1567,6 +1573,7 @@ class Interpreter {
   mutable std::optional<Grid> grid3_, grid2_;
   mutable Eigen::MatrixXd distance_;  // between 3D measurements (index3_), for seeds
   mutable Eigen::VectorXd sigma2_;    // their largest variances
+  Eigen::VectorXd sigma2_image_;      // the same for image measurements (index2_)
   mutable double diagonal_ = 1000;
 };
 
