@@ -8,6 +8,7 @@
 #include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <numeric>
 #include <unordered_map>
@@ -46,6 +47,9 @@ constexpr int kSupportMargin = 2;
 constexpr double kDetermined = 0.1;
 constexpr int kPlaceIterations = 30;
 constexpr double kConfident = 0.99;
+// An interpretation leaving at most this many model points unmatched ends the opening of
+// further seed sets (Explore).
+constexpr int kLazyNulls = 2;
 
 // A model point of the plan: a level's component and feature.
 struct ModelPointRef {
@@ -398,19 +402,57 @@ class Interpreter {
     }
   }
 
+  // Seed sets are opened one at a time (each costs its measurement triples), and a set's clear
+  // winner (support of at least 4 points, or a sixth of them, and 2 more than the set's next
+  // seed; a seed from clutter finds 0-2) is searched at once; once an interpretation with at
+  // most kLazyNulls unmatched points is found, no further set is opened. Otherwise every seed
+  // of every set competes, most supported first, as above.
   void Explore() {
-    std::vector<Seed> seeds = Seeds();
+    const bool image = image_;
+    if (image && (!set_.camera || set_.camera->model != Camera::Model::kPinhole ||
+                  !options_.poses_from_three_projections)) {
+      Search(nullptr);  // no P3P solver for this camera: the unseeded search
+      return;
+    }
+    std::vector<Seed> seeds;
+    std::vector<bool> searched;
+    auto by_support = [](const Seed& a, const Seed& b) {
+      return a.support > b.support || (a.support == b.support && a.residual < b.residual);
+    };
+    auto search = [&](size_t i) {
+      searched[i] = true;
+      ++stats_.seeds_tried;
+      found_ = false;
+      Search(&seeds[i]);
+      return stats_.status != SearchStats::Status::kBudget;
+    };
+    const int strong = std::max(4, levels_ / 6);
+    for (const std::vector<ModelPointRef>& s : SeedSets(image)) {
+      const size_t first = seeds.size();
+      Seeds(s, &seeds);
+      searched.resize(seeds.size(), false);
+      std::stable_sort(seeds.begin() + static_cast<long>(first), seeds.end(), by_support);
+      // A clear winner: well supported, and by two points more than the set's next seed.
+      if (seeds.size() > first && seeds[first].support >= strong &&
+          (seeds.size() == first + 1 || seeds[first].support >= seeds[first + 1].support + 2) &&
+          (best_matched_ < 0 || seeds[first].support + kSupportMargin >= best_matched_)) {
+        if (!search(first)) return;
+      }
+      if (best_matched_ >= levels_ - kLazyNulls) break;
+    }
     stats_.seeds = static_cast<int>(seeds.size());
     if (seeds.empty()) {
       Search(nullptr);
       return;
     }
-    for (Seed& seed : seeds) {
-      if (best_matched_ >= 0 && seed.support + kSupportMargin < best_matched_) break;
-      ++stats_.seeds_tried;
-      found_ = false;
-      Search(&seed);
-      if (stats_.status == SearchStats::Status::kBudget) return;
+    std::vector<size_t> order(seeds.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(),
+                     [&](size_t a, size_t b) { return by_support(seeds[a], seeds[b]); });
+    for (size_t i : order) {
+      if (searched[i]) continue;
+      if (best_matched_ >= 0 && seeds[i].support + kSupportMargin < best_matched_) break;
+      if (!search(i)) return;
     }
   }
 
@@ -532,30 +574,20 @@ class Interpreter {
   }
 
   // Hypotheses for every seed set, most supported first.
-  std::vector<Seed> Seeds() {
-    std::vector<Seed> seeds;
-    const bool image = image_;
-    if (image && (!set_.camera || set_.camera->model != Camera::Model::kPinhole ||
-                  !options_.poses_from_three_projections)) {
-      return seeds;  // no P3P solver for this camera: the unseeded search
+  // Appends the hypotheses of seed set `s`.
+  void Seeds(const std::vector<ModelPointRef>& s, std::vector<Seed>* seeds) {
+    const int context = ContextFor(s);
+    if (context < 0) return;
+    // The seed set in the plan's order (a triangle may open in another order).
+    std::vector<ModelPointRef> ordered;
+    for (int l = 0; l < static_cast<int>(s.size()); ++l) {
+      ordered.push_back(contexts_[context].points[l]);
     }
-    for (const std::vector<ModelPointRef>& s : SeedSets(image)) {
-      const int context = ContextFor(s);
-      if (context < 0) continue;
-      // The seed set in the plan's order (a triangle may open in another order).
-      std::vector<ModelPointRef> ordered;
-      for (int l = 0; l < static_cast<int>(s.size()); ++l)
-        ordered.push_back(contexts_[context].points[l]);
-      if (image) {
-        ImageSeeds(ordered, context, &seeds);
-      } else {
-        PointSeeds(ordered, context, &seeds);
-      }
+    if (image_) {
+      ImageSeeds(ordered, context, seeds);
+    } else {
+      PointSeeds(ordered, context, seeds);
     }
-    std::stable_sort(seeds.begin(), seeds.end(), [](const Seed& a, const Seed& b) {
-      return a.support > b.support || (a.support == b.support && a.residual < b.residual);
-    });
-    return seeds;
   }
 
   // 3D: measurement triples whose pairwise distances match the seed's within the gate.
@@ -1469,10 +1501,21 @@ class Interpreter {
       const Constraint* constraint;
       std::vector<int> point_columns, other_columns;
       Eigen::MatrixXd others;  // covariance of the other blocks' tangent coordinates
+      double loose = 0;        // a bound on |r|² no measurement inside the gate exceeds
     };
     std::vector<Own> own;
+    if (max_trace3_ < 0) {
+      max_trace3_ = 0;
+      for (const MeasuredPoint& m : set_.points) {
+        if (m.is_3d) max_trace3_ = std::max(max_trace3_, m.cov3.trace());
+      }
+    }
+    Values moved = f.state.mean;
+    Eigen::Vector3d& x = moved.points[g_.blocks[point_block].index];
+    Eigen::VectorXd r;
+    Eigen::MatrixXd H;
     for (int k : f.own) {
-      Own o{&g_.constraints[k], {}, {}, {}};
+      Own o{&g_.constraints[k], {}, {}, {}, 0};
       std::vector<int> index;
       int column = 0;
       for (int b : o.constraint->blocks) {
@@ -1487,15 +1530,32 @@ class Interpreter {
         }
       }
       o.others = f.state.covariance(index, index);
+      // Most measurements lie far off the locus: a test on the residual alone rejects them
+      // before its Jacobian is computed. Its variance is bounded by the one at the point's
+      // current guess, with the largest measurement noise, times 100 (10 sigma of slack for
+      // how the Jacobian turns between there and a candidate).
+      EvaluateResidual(*o.constraint->residual, g_.blocks, o.constraint->blocks, moved, &r, &H);
+      const Eigen::MatrixXd Hp = H(Eigen::all, o.point_columns);
+      const Eigen::MatrixXd Ho = H(Eigen::all, o.other_columns);
+      const Eigen::MatrixXd S0 = max_trace3_ * Hp * Hp.transpose() + Ho * o.others * Ho.transpose();
+      const double largest = S0.rows() == 1 ? S0(0, 0) : S0.trace();
+      o.loose = 100 * Gate(static_cast<int>(r.size())) * largest;
+      if (!std::isfinite(o.loose)) o.loose = std::numeric_limits<double>::infinity();
       own.push_back(std::move(o));
     }
-    Values moved = f.state.mean;
-    Eigen::Vector3d& x = moved.points[g_.blocks[point_block].index];
-    Eigen::VectorXd r;
-    Eigen::MatrixXd H;
     for (size_t m = 0; m < set_.points.size(); ++m) {
       if (used[m] || listed[m] || !set_.points[m].is_3d) continue;
       x = set_.points[m].xyz;
+      bool near = true;
+      for (const Own& o : own) {
+        EvaluateResidual(*o.constraint->residual, g_.blocks, o.constraint->blocks, moved, &r,
+                         nullptr);
+        if (!(r.squaredNorm() <= o.loose)) {
+          near = false;
+          break;
+        }
+      }
+      if (!near) continue;
       // Each own constraint evaluated with the point moved to the measurement; its variance
       // from the other blocks' covariance and the measurement's, through the Jacobian there.
       double nis = 0;
@@ -1573,6 +1633,7 @@ class Interpreter {
   mutable std::optional<Grid> grid3_, grid2_;
   mutable Eigen::MatrixXd distance_;  // between 3D measurements (index3_), for seeds
   mutable Eigen::VectorXd sigma2_;    // their largest variances
+  mutable double max_trace3_ = -1;    // the largest trace of a 3D measurement's covariance
   Eigen::VectorXd sigma2_image_;      // the same for image measurements (index2_)
   mutable double diagonal_ = 1000;
 };
