@@ -16,11 +16,11 @@
 // hinge joins, which no data can tell apart).
 //
 // Configurations: "improved" (the defaults), "paper" (one match at a time: no joint
-// compatibility, no probability order, no re-association, no postponed blind points; Hel-Or &
-// Werman's search), "components" (the paper's divide and conquer: constraints between
-// components ignored); ablations, each one improvement off: "no-joint-compatibility",
-// "no-probability-order", "no-refinement", "no-postpone-blind"; and "free-nulls" (one
-// evidenced null per branch not counted: faster, less reliable).
+// compatibility, no probability order, no re-association, no postponed blind points, every
+// null counted; Hel-Or & Werman's search), "components" (the paper's divide and conquer:
+// constraints between components ignored); ablations, each one improvement off:
+// "no-joint-compatibility", "no-probability-order", "no-refinement", "no-postpone-blind",
+// "no-free-nulls".
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -80,8 +80,8 @@ InterpretOptions Config(const std::string& name) {
     o.refine_rounds = 0;
   } else if (name == "no-postpone-blind") {
     o.postpone_blind = false;
-  } else if (name == "free-nulls") {
-    o.free_evidenced_nulls = 1;
+  } else if (name == "no-free-nulls") {
+    o.free_evidenced_nulls = 0;
   } else if (name != "improved") {
     throw std::invalid_argument("unknown configuration '" + name + "'");
   }
