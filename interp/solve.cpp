@@ -318,9 +318,12 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     ClosedFormPose(k, set, options, MeanDepth(in_world), &current);
   }
 
+  Values unplaced;  // the start before unmeasured points are placed: the fallback below
   if (options.guess) {
     ApplyGuess(graph, *options.guess, &initial);
   } else {
+    unplaced = initial;
+    ResetSlacks(graph, &unplaced);
     std::vector<bool> measured(graph.components.size(), false);
     for (const ResolvedLabel& r : solution.labels) measured[r.component] = true;
     for (size_t c = 0; c < graph.components.size(); ++c) {
@@ -394,6 +397,17 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   SequenceOptions sequence = options.sequence;
   sequence.constraint_tolerance = 1e-8 * solution.extent;
   solution.summary = FuseSequence(factors, &solution.state, sequence);
+  if (!solution.summary.converged && !options.guess) {
+    // Placing unmeasured points can still pick the wrong one of two places their constraints
+    // allow (a mirror image about their neighbours); the unplaced start is the second try.
+    GaussianState state = MakePrior(graph.blocks, unplaced, scale);
+    SequenceSummary summary = FuseSequence(factors, &state, sequence);
+    if (summary.converged ||
+        summary.max_constraint_residual < solution.summary.max_constraint_residual) {
+      solution.state = std::move(state);
+      solution.summary = std::move(summary);
+    }
+  }
   for (size_t i = 0; i < factors.size(); ++i) {
     if (solution.summary.fusions[i].status == FusionSummary::Status::kContradiction) {
       solution.contradictions.push_back(factors[i].name);
