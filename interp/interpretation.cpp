@@ -829,8 +829,11 @@ class Interpreter {
       const int real = c.measurement >= 0 ? 1 : 0;
       // A blind point's first null only postpones it: not counted.
       const bool postpone = f.blind && !f.revisit[f.level];
-      const bool free_null =
-          !real && f.evidenced_null && f.free_nulls < options_.free_evidenced_nulls;
+      // Single points only: a rigid component's features stand or fall with its pose, and a
+      // free null would hide the one feature that shows a pose wrong (the box's lid faces).
+      const bool free_null = !real && f.evidenced_null &&
+                             f.free_nulls < options_.free_evidenced_nulls &&
+                             !g_.components[ctx_->points[f.level].component].rigid;
       // The null branch after a confident match passed its tests is not tried: the point is
       // there (Lowe's probability that the measurement is clutter is below 1 %). Its other
       // candidates still are: pruned too, the hinged box lost 1.5-2 % of its trials.
