@@ -1099,60 +1099,8 @@ class Interpreter {
   // centimetres off; linearised there, its constraints would disagree with matches that are
   // right. False when the residuals are not finite.
   bool Place(const std::vector<int>& list, int component, Frame* f) const {
-    const int point_block = g_.components[component].block;
-    Eigen::Vector3d& x = f->state.mean.points[g_.blocks[point_block].index];
-    auto evaluate = [&](Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
-      std::vector<double> r_all;
-      std::vector<Eigen::RowVector3d> j_all;
-      Eigen::VectorXd r;
-      Eigen::MatrixXd H;
-      for (int k : list) {
-        const Constraint& c = g_.constraints[k];
-        EvaluateResidual(*c.residual, g_.blocks, c.blocks, f->state.mean, &r,
-                         jacobian ? &H : nullptr);
-        for (int i = 0; i < r.size(); ++i) r_all.push_back(r(i));
-        if (!jacobian) continue;
-        int column = 0;
-        for (size_t s = 0; s < c.blocks.size(); ++s) {
-          if (c.blocks[s] == point_block) {
-            for (int i = 0; i < r.size(); ++i) j_all.push_back(H.block<1, 3>(i, column));
-          }
-          column += TangentDim(g_.blocks[c.blocks[s]].kind);
-        }
-      }
-      *residual = Eigen::Map<Eigen::VectorXd>(r_all.data(), static_cast<long>(r_all.size()));
-      if (jacobian) {
-        jacobian->resize(static_cast<long>(j_all.size()), 3);
-        for (size_t i = 0; i < j_all.size(); ++i) jacobian->row(static_cast<long>(i)) = j_all[i];
-      }
-    };
-    Eigen::VectorXd r, r_new;
-    Eigen::MatrixXd J;
-    evaluate(&r, &J);
-    if (!r.allFinite() || !J.allFinite()) return false;
-    double cost = r.squaredNorm(), lambda = 1e-3;
-    for (int it = 0; it < kPlaceIterations && cost > 0; ++it) {
-      const Eigen::Matrix3d JtJ = J.transpose() * J;
-      const Eigen::Vector3d g = J.transpose() * r;
-      const Eigen::Vector3d step =
-          -(JtJ + lambda * Eigen::Matrix3d(JtJ.diagonal().cwiseMax(1e-12).asDiagonal()))
-               .ldlt()
-               .solve(g);
-      const Eigen::Vector3d before = x;
-      x += step;
-      evaluate(&r_new, nullptr);
-      if (r_new.allFinite() && r_new.squaredNorm() < cost) {
-        cost = r_new.squaredNorm();
-        lambda = std::max(lambda / 10, 1e-9);
-        evaluate(&r, &J);
-        if (step.norm() <= 1e-12 * (1 + x.norm())) break;
-      } else {
-        x = before;
-        lambda *= 10;
-        if (lambda > 1e9) break;
-      }
-    }
-    return true;
+    return PlacePoint(g_, list, g_.components[component].block, &f->state.mean,
+                      {.max_iterations = kPlaceIterations});
   }
 
   // Whether constraints `list` determine single point `component` where it is now guessed:
@@ -1391,27 +1339,32 @@ class Interpreter {
     });
   }
 
+  // δ = (p - z)ᵀ (P + Λ)⁻¹ (p - z) and log det(P + Λ) for an N-vector measurement, in fixed
+  // sizes: this runs for every measurement at every level. False when the prediction has
+  // another size or P + Λ is not positive definite.
+  template <int N>
+  static bool Mahalanobis(const Prediction& p, const Eigen::Matrix<double, N, 1>& z,
+                          const Eigen::Matrix<double, N, N>& noise, double* delta,
+                          double* log_det) {
+    if (p.mean.size() != N) return false;
+    const Eigen::Matrix<double, N, 1> d = Eigen::Matrix<double, N, 1>(p.mean) - z;
+    const Eigen::LLT<Eigen::Matrix<double, N, N>> llt(Eigen::Matrix<double, N, N>(p.covariance) +
+                                                      noise);
+    if (llt.info() != Eigen::Success) return false;
+    *delta = d.dot(llt.solve(d));
+    *log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
+    return true;
+  }
+
   // Measurement m against a prediction of its model point: its δ, Lowe's probability and
   // whether the gate is informative; nothing when outside the gate (unless not `gated`).
   std::optional<Candidate> Score(const Prediction& p, int m, bool gated = true) const {
     const MeasuredPoint& z = set_.points[m];
     if (!p.valid) return std::nullopt;
-    // Fixed sizes: this runs for every measurement at every level.
     double delta = 0, log_det = 0;
-    if (z.is_3d) {
-      if (p.mean.size() != 3) return std::nullopt;
-      const Eigen::Vector3d d = Eigen::Vector3d(p.mean) - z.xyz;
-      const Eigen::LLT<Eigen::Matrix3d> llt(Eigen::Matrix3d(p.covariance) + z.cov3);
-      if (llt.info() != Eigen::Success) return std::nullopt;
-      delta = d.dot(llt.solve(d));
-      log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
-    } else {
-      if (p.mean.size() != 2) return std::nullopt;
-      const Eigen::Vector2d d = Eigen::Vector2d(p.mean) - z.uv;
-      const Eigen::LLT<Eigen::Matrix2d> llt(Eigen::Matrix2d(p.covariance) + z.cov2);
-      if (llt.info() != Eigen::Success) return std::nullopt;
-      delta = d.dot(llt.solve(d));
-      log_det = 2 * llt.matrixLLT().diagonal().array().log().sum();
+    if (!(z.is_3d ? Mahalanobis<3>(p, z.xyz, z.cov3, &delta, &log_det)
+                  : Mahalanobis<2>(p, z.uv, z.cov2, &delta, &log_det))) {
+      return std::nullopt;
     }
     if (gated && !(delta <= (z.is_3d ? gate3_ : gate2_))) return std::nullopt;
     if (!std::isfinite(delta)) return std::nullopt;

@@ -32,63 +32,6 @@ struct Correspondences {
   }
 };
 
-// Moves single point `block` to where constraints `list` hold best, everything else fixed:
-// Levenberg-Marquardt on the sum of their squared residuals.
-void PlacePoint(const ConstraintGraph& g, const std::vector<int>& list, int block, Values* x) {
-  Eigen::Vector3d& p = x->points[g.blocks[block].index];
-  auto evaluate = [&](Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
-    std::vector<double> rows;
-    std::vector<Eigen::RowVector3d> gradients;
-    Eigen::VectorXd r;
-    Eigen::MatrixXd H;
-    for (int k : list) {
-      const Constraint& c = g.constraints[k];
-      EvaluateResidual(*c.residual, g.blocks, c.blocks, *x, &r, jacobian ? &H : nullptr);
-      for (int i = 0; i < r.size(); ++i) rows.push_back(r(i));
-      if (!jacobian) continue;
-      int column = 0;
-      for (int b : c.blocks) {
-        if (b == block) {
-          for (int i = 0; i < r.size(); ++i) gradients.push_back(H.block<1, 3>(i, column));
-        }
-        column += TangentDim(g.blocks[b].kind);
-      }
-    }
-    *residual = Eigen::Map<Eigen::VectorXd>(rows.data(), static_cast<long>(rows.size()));
-    if (jacobian) {
-      jacobian->resize(static_cast<long>(gradients.size()), 3);
-      for (size_t i = 0; i < gradients.size(); ++i) {
-        jacobian->row(static_cast<long>(i)) = gradients[i];
-      }
-    }
-  };
-  Eigen::VectorXd r, next;
-  Eigen::MatrixXd J;
-  evaluate(&r, &J);
-  if (!r.allFinite() || !J.allFinite() || J.rows() != r.size()) return;
-  double cost = r.squaredNorm(), lambda = 1e-3;
-  for (int it = 0; it < 50 && cost > 0; ++it) {
-    const Eigen::Matrix3d JtJ = J.transpose() * J;
-    const Eigen::Vector3d step =
-        -(JtJ + lambda * Eigen::Matrix3d(JtJ.diagonal().cwiseMax(1e-12).asDiagonal()))
-             .ldlt()
-             .solve(J.transpose() * r);
-    const Eigen::Vector3d before = p;
-    p += step;
-    evaluate(&next, nullptr);
-    if (next.allFinite() && next.squaredNorm() < cost) {
-      cost = next.squaredNorm();
-      lambda = std::max(lambda / 10, 1e-12);
-      evaluate(&r, &J);
-      if (step.norm() <= 1e-12 * (1 + p.norm())) break;
-    } else {
-      p = before;
-      lambda *= 10;
-      if (lambda > 1e12) break;
-    }
-  }
-}
-
 // Unmeasured single points start where the rigid guess puts them, which is off by however far
 // the articulation moved them, and a constraint linearised there can throw the sequential
 // pass far along a direction it leaves free. So each is first placed where its constraints to
@@ -129,7 +72,8 @@ void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured
     }
     // Fewer than three rows leave the point a curve or a surface: its guess stays.
     if (best < 0 || best_rows < 3) return;
-    PlacePoint(g, best_list, g.components[best].block, x);
+    PlacePoint(g, best_list, g.components[best].block, x,
+               {.max_iterations = 50, .min_damping = 1e-12, .max_damping = 1e12});
     known[best] = true;
   }
 }
@@ -224,6 +168,64 @@ double ModelExtent(const ConstraintGraph& graph) {
   double extent = 1e-3;
   for (const Eigen::Vector3d& p : points) extent = std::max(extent, (p - centre).norm());
   return extent;
+}
+
+bool PlacePoint(const ConstraintGraph& g, const std::vector<int>& list, int block, Values* x,
+                const PlaceOptions& options) {
+  Eigen::Vector3d& p = x->points[g.blocks[block].index];
+  auto evaluate = [&](Eigen::VectorXd* residual, Eigen::MatrixXd* jacobian) {
+    std::vector<double> rows;
+    std::vector<Eigen::RowVector3d> gradients;
+    Eigen::VectorXd r;
+    Eigen::MatrixXd H;
+    for (int k : list) {
+      const Constraint& c = g.constraints[k];
+      EvaluateResidual(*c.residual, g.blocks, c.blocks, *x, &r, jacobian ? &H : nullptr);
+      for (int i = 0; i < r.size(); ++i) rows.push_back(r(i));
+      if (!jacobian) continue;
+      int column = 0;
+      for (int b : c.blocks) {
+        if (b == block) {
+          for (int i = 0; i < r.size(); ++i) gradients.push_back(H.block<1, 3>(i, column));
+        }
+        column += TangentDim(g.blocks[b].kind);
+      }
+    }
+    *residual = Eigen::Map<Eigen::VectorXd>(rows.data(), static_cast<long>(rows.size()));
+    if (jacobian) {
+      jacobian->resize(static_cast<long>(gradients.size()), 3);
+      for (size_t i = 0; i < gradients.size(); ++i) {
+        jacobian->row(static_cast<long>(i)) = gradients[i];
+      }
+    }
+  };
+  Eigen::VectorXd r, next;
+  Eigen::MatrixXd J;
+  evaluate(&r, &J);
+  if (!r.allFinite() || !J.allFinite()) return false;
+  if (J.rows() != r.size()) return true;  // the point appears in none of the residuals
+  double cost = r.squaredNorm(), lambda = 1e-3;
+  for (int it = 0; it < options.max_iterations && cost > 0; ++it) {
+    const Eigen::Matrix3d JtJ = J.transpose() * J;
+    const Eigen::Vector3d step =
+        -(JtJ + lambda * Eigen::Matrix3d(JtJ.diagonal().cwiseMax(1e-12).asDiagonal()))
+             .ldlt()
+             .solve(J.transpose() * r);
+    const Eigen::Vector3d before = p;
+    p += step;
+    evaluate(&next, nullptr);
+    if (next.allFinite() && next.squaredNorm() < cost) {
+      cost = next.squaredNorm();
+      lambda = std::max(lambda / 10, options.min_damping);
+      evaluate(&r, &J);
+      if (step.norm() <= 1e-12 * (1 + p.norm())) break;
+    } else {
+      p = before;
+      lambda *= 10;
+      if (lambda > options.max_damping) break;
+    }
+  }
+  return true;
 }
 
 std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const MeasurementSet& set) {

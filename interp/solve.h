@@ -75,6 +75,16 @@ double ModelExtent(const ConstraintGraph& graph);
 Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
                const SolveOptions& options = {});
 
+// Moves single point `block` to where constraints `list` hold best, everything else in `x`
+// fixed: Levenberg-Marquardt on the sum of their squared residuals. False when they or their
+// Jacobians are not finite at the start.
+struct PlaceOptions {
+  int max_iterations = 30;
+  double min_damping = 1e-9, max_damping = 1e9;  // bounds on the Levenberg-Marquardt lambda
+};
+bool PlacePoint(const ConstraintGraph& graph, const std::vector<int>& list, int block, Values* x,
+                const PlaceOptions& options = {});
+
 // The world position of a model point (component, feature) in `values`.
 Eigen::Vector3d ModelPoint(const ConstraintGraph& graph, const Values& values, int component,
                            int feature);
