@@ -13,7 +13,10 @@
 //
 // A measurement is right when it is left unmatched and is clutter, or is matched to a model
 // point at the place of its true one (two model points can share a place: the corners a
-// hinge joins, which no data can tell apart).
+// hinge joins, which no data can tell apart). In an image, also when the two points' true
+// projections are within 3 noise sigmas (3 px) of each other: the 10 mm lid of the hinged box
+// seen nearly edge-on puts its two faces' corners 1-2 px apart, and a measurement cannot say
+// which of them it is. The strict share (labels exactly, or at one place) is printed too.
 //
 // Configurations: "improved" (the defaults), "paper" (one match at a time: no joint
 // compatibility, no probability order, no re-association, no postponed blind points, every
@@ -26,6 +29,7 @@
 #include <CLI/CLI.hpp>
 #include <algorithm>
 #include <chrono>
+#include <optional>
 #include <sstream>
 #include <vector>
 
@@ -116,13 +120,14 @@ int Run(int argc, char** argv) {
 
   fmt::print(
       "| model | data | clutter | occlusion | search | all right | matches right | nodes "
-      "expanded (median, p95) | nodes evaluated (median) | time (median) |\n"
-      "|---|---|---|---|---|---|---|---|---|---|\n");
+      "expanded (median, p95) | nodes evaluated (median) | time (median) |{}\n"
+      "|---|---|---|---|---|---|---|---|---|---|{}\n",
+      camera ? " all right, strict labels |" : "", camera ? "---|" : "");
   for (double clutter : Numbers(clutters)) {
     for (double occlusion : Numbers(occlusions)) {
       for (const std::string& config : Split(configs)) {
         const InterpretOptions options = Config(config);
-        int all_right = 0, right = 0, real = 0;
+        int all_right = 0, all_right_strict = 0, right = 0, real = 0;
         std::vector<long> expanded, evaluated;
         std::vector<double> ms;
         for (int t = first; t < first + trials; ++t) {
@@ -137,20 +142,30 @@ int Run(int argc, char** argv) {
           ms.push_back(
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                   .count());
-          bool all = true;
+          bool all = true, all_strict = true;
           for (size_t m = 0; m < sim.matches.size(); ++m) {
             const std::string &truth = sim.matches[m], &found = in.matches[m];
-            const bool ok = SameModelPlace(g, sim.truth, truth, found);
+            const bool strict = SameModelPlace(g, sim.truth, truth, found);
+            // In an image, two points projecting within 3 noise sigmas of each other cannot be
+            // told apart by their measurements (a 10 mm plate seen nearly edge-on).
+            const std::optional<double> apart =
+                camera ? ImageSeparation(g, sim.truth, pinhole, truth, found) : std::nullopt;
+            const bool ok = strict || (apart && *apart <= 3 * so.pixel_noise);
             all = all && ok;
+            all_strict = all_strict && strict;
             if (!truth.empty()) {
               ++real;
               right += ok ? 1 : 0;
             }
             if (verbose && !ok) {
               fmt::print("   trial {} m{}: truth '{}' found '{}'\n", t, m, truth, found);
+            } else if (verbose && !strict) {
+              fmt::print("   trial {} m{}: truth '{}' found '{}', {:.2f} px apart\n", t, m, truth,
+                         found, *apart);
             }
           }
           all_right += all ? 1 : 0;
+          all_right_strict += all_strict ? 1 : 0;
           expanded.push_back(in.stats.expanded);
           evaluated.push_back(in.stats.nodes);
           if (verbose) {
@@ -162,11 +177,12 @@ int Run(int argc, char** argv) {
           }
         }
         fmt::print(
-            "| {} | {} | {} | {:.0f} % | {} | {:.1f} % | {:.2f} % | {}, {} | {} | {:.2f} ms |\n",
+            "| {} | {} | {} | {:.0f} % | {} | {:.1f} % | {:.2f} % | {}, {} | {} | {:.2f} ms |{}\n",
             g.name, camera ? "2D" : "3D", clutter, 100 * occlusion, config,
             100.0 * all_right / trials, real ? 100.0 * right / real : 100.0,
             Quantile(expanded, 0.5), Quantile(expanded, 0.95), Quantile(evaluated, 0.5),
-            Quantile(ms, 0.5));
+            Quantile(ms, 0.5),
+            camera ? fmt::format(" {:.1f} % |", 100.0 * all_right_strict / trials) : "");
         std::fflush(stdout);
       }
     }

@@ -359,9 +359,43 @@ class Interpreter {
       // A measurement moved from a matched point to an unmatched one whose gate holds it: two
       // points close together (the two faces of a thin plate) of which one is occluded. Matched
       // to the wrong one, the estimate bends to fit it, and re-association alone stays there.
-      if (!MoveToUnmatched(try_labelling, solution.state, *assignment)) break;
+      if (MoveToUnmatched(try_labelling, solution.state, *assignment)) continue;
+      // Two matched points close together, each inside the other's gate (a thin plate's two
+      // faces seen nearly edge-on): a labelling swapped there bends its estimate to fit, and
+      // re-association under that estimate keeps it. Each such pair swapped, under its own
+      // estimate.
+      if (!SwapClosePairs(try_labelling, solution.state, *assignment)) break;
     }
     return solution;
+  }
+
+  template <typename Try>
+  bool SwapClosePairs(Try& try_labelling, const GaussianState& state,
+                      const std::vector<int>& assignment) const {
+    const Context& ctx = contexts_[best_context_];
+    std::vector<std::pair<Prediction, Prediction>> predicted(levels_);
+    for (int l = 0; l < levels_; ++l) {
+      if (assignment[l] >= 0) predicted[l] = PredictPoint(ctx.points[l], state);
+    }
+    auto inside = [&](int level, int m) {
+      const auto& [p3, p2] = predicted[level];
+      return Score(set_.points[m].is_3d ? p3 : p2, m).has_value();
+    };
+    bool changed = false;
+    std::vector<int> current = assignment;
+    for (int i = 0; i < levels_; ++i) {
+      for (int j = i + 1; j < levels_; ++j) {
+        const int mi = current[i], mj = current[j];
+        if (mi < 0 || mj < 0 || !inside(i, mj) || !inside(j, mi)) continue;
+        std::vector<int> next = current;
+        std::swap(next[i], next[j]);
+        if (try_labelling(next)) {
+          current = std::move(next);
+          changed = true;
+        }
+      }
+    }
+    return changed;
   }
 
   template <typename Try>

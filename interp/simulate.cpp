@@ -180,22 +180,43 @@ Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options
   return sim;
 }
 
-bool SameModelPlace(const ConstraintGraph& graph, const Values& values, const std::string& truth,
-                    const std::string& found) {
-  if (truth.empty() || found.empty()) return truth.empty() && found.empty();
-  if (truth == found) return true;
-  std::optional<Eigen::Vector3d> a, b;
+namespace {
+
+// The position in `values` of the model point named `name`.
+std::optional<Eigen::Vector3d> NamedModelPoint(const ConstraintGraph& graph, const Values& values,
+                                               const std::string& name) {
   for (size_t c = 0; c < graph.components.size(); ++c) {
     const Component& comp = graph.components[c];
     const int features = comp.rigid ? static_cast<int>(comp.points.size()) : 1;
     for (int f = 0; f < features; ++f) {
       const int feature = comp.rigid ? f : -1;
-      const std::string name = ModelPointName(graph, static_cast<int>(c), feature);
-      if (name == truth) a = ModelPoint(graph, values, static_cast<int>(c), feature);
-      if (name == found) b = ModelPoint(graph, values, static_cast<int>(c), feature);
+      if (ModelPointName(graph, static_cast<int>(c), feature) == name) {
+        return ModelPoint(graph, values, static_cast<int>(c), feature);
+      }
     }
   }
+  return std::nullopt;
+}
+
+}  // namespace
+
+bool SameModelPlace(const ConstraintGraph& graph, const Values& values, const std::string& truth,
+                    const std::string& found) {
+  if (truth.empty() || found.empty()) return truth.empty() && found.empty();
+  if (truth == found) return true;
+  const std::optional<Eigen::Vector3d> a = NamedModelPoint(graph, values, truth),
+                                       b = NamedModelPoint(graph, values, found);
   return a && b && (*a - *b).norm() <= 1e-9 * ModelExtent(graph);
+}
+
+std::optional<double> ImageSeparation(const ConstraintGraph& graph, const Values& values,
+                                      const Camera& camera, const std::string& truth,
+                                      const std::string& found) {
+  if (truth.empty() || found.empty()) return std::nullopt;
+  const std::optional<Eigen::Vector3d> a = NamedModelPoint(graph, values, truth),
+                                       b = NamedModelPoint(graph, values, found);
+  if (!a || !b) return std::nullopt;
+  return (camera.Project<double>(*a) - camera.Project<double>(*b)).norm();
 }
 
 }  // namespace cfuse

@@ -47,4 +47,13 @@ Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options
 bool SameModelPlace(const ConstraintGraph& graph, const Values& values, const std::string& truth,
                     const std::string& found);
 
+// Image data: how far apart, in pixels, `camera` sees the model points named `truth` and
+// `found` in `values`; nullopt when either is "" or unknown. Points projecting within the noise
+// of each other (a thin plate's two faces seen nearly edge-on) cannot be told apart by their
+// measurements: the benchmark and tests count such a label right at 3 sigmas, beside the strict
+// count.
+std::optional<double> ImageSeparation(const ConstraintGraph& graph, const Values& values,
+                                      const Camera& camera, const std::string& truth,
+                                      const std::string& found);
+
 }  // namespace cfuse

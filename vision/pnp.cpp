@@ -1,7 +1,10 @@
 #include "vision/pnp.h"
 
+#include <algorithm>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
+
+#include "vision/p3p.h"
 
 namespace cfuse::vision {
 
@@ -40,29 +43,28 @@ std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
                                                const std::array<Eigen::Vector2d, 3>& image_points) {
   std::vector<Rigid3d> poses;
   if (camera.model != Camera::Model::kPinhole) return poses;
-  std::vector<cv::Point3d> object;
-  std::vector<cv::Point2d> image;
-  for (int i = 0; i < 3; ++i) {
-    object.emplace_back(object_points[i].x(), object_points[i].y(), object_points[i].z());
-    image.emplace_back(image_points[i].x(), image_points[i].y());
+  // Bearings: the normalised image coordinates, undistorted by OpenCV when the camera has
+  // distortion (its iterative inverse of the model in kernel/measurements/camera.h).
+  std::array<Eigen::Vector2d, 3> xy;
+  if (std::all_of(camera.distortion.begin(), camera.distortion.end(),
+                  [](double d) { return d == 0; })) {
+    for (int i = 0; i < 3; ++i) {
+      xy[i] = {(image_points[i].x() - camera.cx) / camera.fx,
+               (image_points[i].y() - camera.cy) / camera.fy};
+    }
+  } else {
+    std::vector<cv::Point2d> image, normalised;
+    for (const Eigen::Vector2d& p : image_points) image.emplace_back(p.x(), p.y());
+    const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
+    const std::vector<double> dist(camera.distortion.begin(), camera.distortion.end());
+    cv::undistortPoints(image, normalised, K, dist);
+    for (int i = 0; i < 3; ++i) xy[i] = {normalised[i].x, normalised[i].y};
   }
-  const cv::Matx33d K(camera.fx, 0, camera.cx, 0, camera.fy, camera.cy, 0, 0, 1);
-  const std::vector<double> dist(camera.distortion.begin(), camera.distortion.end());
-  std::vector<cv::Mat> rvecs, tvecs;
-  try {
-    cv::solveP3P(object, image, K, dist, rvecs, tvecs, cv::SOLVEPNP_P3P);
-  } catch (const cv::Exception&) {
-    return poses;  // degenerate (collinear points, coincident rays)
-  }
-  for (size_t i = 0; i < rvecs.size(); ++i) {
-    cv::Matx33d R;
-    cv::Rodrigues(rvecs[i], R);
-    Eigen::Matrix3d Re;
-    cv::cv2eigen(cv::Mat(R), Re);
-    Eigen::Vector3d t;
-    cv::cv2eigen(tvecs[i], t);
-    if (Re.allFinite() && t.allFinite()) poses.emplace_back(Re, t);
-  }
+  std::array<Eigen::Vector3d, 3> bearings;
+  for (int i = 0; i < 3; ++i) bearings[i] = Eigen::Vector3d(xy[i].x(), xy[i].y(), 1).normalized();
+  std::array<Rigid3d, 4> found;
+  const int n = ThreePointPoses(bearings, object_points, &found);
+  poses.assign(found.begin(), found.begin() + n);
   return poses;
 }
 

@@ -17,11 +17,13 @@ namespace {
 
 struct Tally {
   int trials = 0, all_right = 0, right = 0, real = 0;
+  int all_right_strict = 0;  // image data: labels exactly, or at one place
 };
 
 // Simulated models (seeds 100, 101, ...; the benchmark's, bench/interpret_sweep.cpp)
 // interpreted; a match is right when it names the measurement's true model point (or one at
-// its place), and a clutter point is right when left unmatched.
+// its place, or in an image one projecting within 3 noise sigmas of it: simulate.h), and a
+// clutter point is right when left unmatched.
 Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion,
           const std::optional<Camera>& camera = std::nullopt) {
   Tally t;
@@ -36,10 +38,15 @@ Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion
     so.camera = camera;
     const Simulation sim = Simulate(g, so);
     const Interpretation in = Interpret(g, sim.measurements, options);
-    bool all = true;
+    bool all = true, all_strict = true;
     for (size_t m = 0; m < sim.matches.size(); ++m) {
-      const bool ok = SameModelPlace(g, sim.truth, sim.matches[m], in.matches[m]);
+      const bool strict = SameModelPlace(g, sim.truth, sim.matches[m], in.matches[m]);
+      const std::optional<double> apart =
+          camera ? ImageSeparation(g, sim.truth, *camera, sim.matches[m], in.matches[m])
+                 : std::nullopt;
+      const bool ok = strict || (apart && *apart <= 3 * so.pixel_noise);
       all = all && ok;
+      all_strict = all_strict && strict;
       if (!sim.matches[m].empty()) {
         ++t.real;
         t.right += ok ? 1 : 0;
@@ -47,6 +54,7 @@ Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion
     }
     ++t.trials;
     t.all_right += all ? 1 : 0;
+    t.all_right_strict += all_strict ? 1 : 0;
   }
   return t;
 }
@@ -110,10 +118,13 @@ TEST_CASE("interpret: the hinged box from 3D points and from one camera", "[inte
   const Tally points = Run(g, 20, 2, 0.1);
   INFO("3D, clutter 2, occlusion 10 %: all right in " << points.all_right << " of 20");
   CHECK(points.all_right >= 18);
-  const Tally image = Run(g, 5, 0, 0, testing::Pinhole());
-  INFO("2D: all right in " << image.all_right << " of 5; " << image.right << " of " << image.real
-                           << " matches");
-  CHECK(image.all_right >= 4);
+  // From one camera (docs/benchmarks.md: 95 % all right without clutter, 73 % with strict labels,
+  // the rest 10 mm lid corners a pixel or two apart).
+  const Tally image = Run(g, 20, 1, 0, testing::Pinhole());
+  INFO("2D, clutter 1: all right in " << image.all_right << " of 20 (" << image.all_right_strict
+                                      << " strictly); " << image.right << " of " << image.real
+                                      << " matches");
+  CHECK(image.all_right >= 17);
   CHECK(image.right >= 0.95 * image.real);
 }
 
