@@ -7,6 +7,7 @@
 #include <fstream>
 
 #include "dsl/model_loader.h"
+#include "importers/urdf.h"
 #include "kernel/check.h"
 #include "kernel/error.h"
 
@@ -33,15 +34,25 @@ int Guarded(std::ostream& err, const std::function<int()>& body) {
   }
 }
 
+dsl::LoadOptions ModelLoadOptions() {
+  dsl::LoadOptions options;
+  options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
+    return importers::ImportUrdf(path, where);
+  };
+  return options;
+}
+
 ConstraintGraph LoadAnyModel(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".urdf") return importers::ImportUrdf(path);
   if (ext != ".yaml" && ext != ".yml") {
     throw InputError(SourceLocation(path),
-                     fmt::format("unsupported model format '{}': model files are .yaml or .yml",
+                     fmt::format("unsupported model format '{}': model files are .yaml, .yml or "
+                                 ".urdf",
                                  ext.empty() ? "(no extension)" : ext));
   }
-  return dsl::LoadModel(path);
+  return dsl::LoadModel(path, ModelLoadOptions());
 }
 
 // Writes `content` to `path` through a temporary file in the same directory, so that a

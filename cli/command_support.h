@@ -14,7 +14,8 @@ namespace cfuse::cli {
 // -> "cfuse: ..." and status 3; otherwise the body's status.
 int Guarded(std::ostream& err, const std::function<int()>& body);
 
-// A model from a file, by its extension.
+// A model from a file, by its extension: .yaml/.yml (the DSL, whose `include:` reads .urdf
+// files too) or .urdf (importers/urdf.h).
 ConstraintGraph LoadAnyModel(const std::string& path);
 
 // Writes `content` to `path` through a temporary file in the same directory, so that a

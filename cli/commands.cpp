@@ -15,9 +15,11 @@
 #include "cli/command_support.h"
 #include "cli/results.h"
 #include "cli/summary.h"
+#include "constraints/forward_kinematics.h"
 #include "constraints/graphviz.h"
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "dsl/model_writer.h"
 #include "dsl/pose_reader.h"
 #include "interp/interpretation.h"
 #include "interp/schedule.h"
@@ -176,6 +178,39 @@ int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::o
         std::count_if(sim.matches.begin(), sim.matches.end(),
                       [](const std::string& m) { return m.empty(); }),
         options.output, options.truth);
+    return 0;
+  });
+}
+
+int RunImport(const ImportOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    const std::string text = dsl::WriteModel(graph);
+    if (options.output.empty()) {
+      out << text;
+    } else {
+      WriteFileAtomically(options.output, text);
+    }
+    return 0;
+  });
+}
+
+int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    std::vector<JointValue> given;
+    if (!options.joints.empty()) given = dsl::ReadJointValues(options.joints);
+    const std::map<std::string, double> q = CompleteJointValues(graph, given);
+    const Values values = ForwardKinematics(graph, q);
+    nlohmann::json result = PosesJson(graph, values);
+    result["joints"] = nlohmann::json::object();
+    for (const auto& [name, value] : q) result["joints"][name] = {{"value", value}};
+    const std::string text = result.dump(2) + "\n";
+    if (options.output.empty()) {
+      out << text;
+    } else {
+      WriteFileAtomically(options.output, text);
+    }
     return 0;
   });
 }

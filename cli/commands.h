@@ -61,6 +61,19 @@ struct SimulateCommandOptions {
 };
 int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err);
 
+struct ImportOptions {
+  std::string model;   // a .urdf file (or any model file)
+  std::string output;  // empty: stdout
+};
+int RunImport(const ImportOptions& options, std::ostream& out, std::ostream& err);
+
+struct FkOptions {
+  std::string model;
+  std::string joints;  // joint values file; empty: every joint at 0
+  std::string output;  // empty: stdout
+};
+int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err);
+
 struct DemoOptions {
   std::string picture = "cfuse-demo.png";  // PNG of the measurements and the fitted lamp
 };

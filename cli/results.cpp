@@ -25,6 +25,23 @@ nlohmann::json Vector(const Eigen::VectorXd& v) {
   return out;
 }
 
+// The covariance of frame F = C T (T = component_from_frame) from that of its component C, in
+// the results' tangent coordinates [δθ in the frame's axes; δt in the viewer frame]:
+// R_C Exp(δθ) R_T = R_C R_T Exp(R_Tᵀ δθ), and t_F moves by δt - R_C [t_T]× δθ.
+Eigen::Matrix<double, 6, 6> FrameCovariance(const Rigid3d& world_from_component,
+                                            const Rigid3d& component_from_frame,
+                                            const Eigen::MatrixXd& component_covariance) {
+  const Eigen::Matrix3d R_T = component_from_frame.RotationMatrix();
+  const Eigen::Vector3d t = component_from_frame.translation;
+  Eigen::Matrix3d t_cross;
+  t_cross << 0, -t.z(), t.y(), t.z(), 0, -t.x(), -t.y(), t.x(), 0;
+  Eigen::Matrix<double, 6, 6> J = Eigen::Matrix<double, 6, 6>::Zero();
+  J.topLeftCorner<3, 3>() = R_T.transpose();
+  J.bottomLeftCorner<3, 3>() = -world_from_component.RotationMatrix() * t_cross;
+  J.bottomRightCorner<3, 3>().setIdentity();
+  return J * component_covariance * J.transpose();
+}
+
 std::string LabelOf(const ConstraintGraph& graph, const ResolvedLabel& r) {
   const Component& c = graph.components[r.component];
   return r.feature < 0 ? c.name : c.name + "." + c.points[r.feature].name;
@@ -70,6 +87,14 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
       out["components"][c.name] = {{"position", Vector(pose.translation)},
                                    {"quaternion", {q.w(), q.x(), q.y(), q.z()}},
                                    {"covariance", Matrix(cov)}};
+      for (const ComponentFrame& f : c.frames) {
+        const Rigid3d frame = pose * f.component_from_frame;
+        const Eigen::Quaterniond fq = frame.rotation.normalized();
+        out["components"][f.name] = {
+            {"position", Vector(frame.translation)},
+            {"quaternion", {fq.w(), fq.x(), fq.y(), fq.z()}},
+            {"covariance", Matrix(FrameCovariance(pose, f.component_from_frame, cov))}};
+      }
     } else {
       out["points"][c.name] = {{"xyz", Vector(s.mean.points[b.index])}, {"cov", Matrix(cov)}};
     }
@@ -130,25 +155,37 @@ nlohmann::json MeasurementsJson(const MeasurementSet& set) {
   return out;
 }
 
+nlohmann::json PosesJson(const ConstraintGraph& graph, const Values& values) {
+  nlohmann::json out;
+  out["components"] = nlohmann::json::object();
+  out["points"] = nlohmann::json::object();
+  auto pose_json = [](const Rigid3d& pose) {
+    const Eigen::Quaterniond q = pose.rotation.normalized();
+    return nlohmann::json{{"position", Vector(pose.translation)},
+                          {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
+  };
+  for (const Component& c : graph.components) {
+    const Block& b = graph.blocks[c.block];
+    if (c.rigid) {
+      const Rigid3d& pose = values.poses[b.index];
+      out["components"][c.name] = pose_json(pose);
+      for (const ComponentFrame& f : c.frames) {
+        out["components"][f.name] = pose_json(pose * f.component_from_frame);
+      }
+    } else {
+      out["points"][c.name] = {{"xyz", Vector(values.points[b.index])}};
+    }
+  }
+  return out;
+}
+
 nlohmann::json TruthJson(const ConstraintGraph& graph, const Values& truth,
                          const std::vector<std::string>& matches) {
   GaussianState state;
   state.blocks = graph.blocks;
   state.mean = truth;
   state.covariance = Eigen::MatrixXd::Zero(graph.tangent_dim(), graph.tangent_dim());
-  nlohmann::json out;
-  out["components"] = nlohmann::json::object();
-  out["points"] = nlohmann::json::object();
-  for (const Component& c : graph.components) {
-    const Block& b = graph.blocks[c.block];
-    if (c.rigid) {
-      const Eigen::Quaterniond q = truth.poses[b.index].rotation.normalized();
-      out["components"][c.name] = {{"position", Vector(truth.poses[b.index].translation)},
-                                   {"quaternion", {q.w(), q.x(), q.y(), q.z()}}};
-    } else {
-      out["points"][c.name] = {{"xyz", Vector(truth.points[b.index])}};
-    }
-  }
+  nlohmann::json out = PosesJson(graph, truth);
   out["joints"] = nlohmann::json::object();
   for (const JointEstimate& j : EstimateJoints(graph, state))
     out["joints"][j.name] = {{"value", j.value}};

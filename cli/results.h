@@ -15,6 +15,10 @@ namespace cfuse::cli {
 nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& set,
                             const Solution& solution, double time_ms);
 
+// Every rigid component's and frame's pose and every single point's position, without
+// covariances: {"components": ..., "points": ...}, as in truth files and `fk`'s output.
+nlohmann::json PosesJson(const ConstraintGraph& graph, const Values& values);
+
 // A measurement file (docs/formats.md) and the truth file `simulate` writes beside it.
 nlohmann::json MeasurementsJson(const MeasurementSet& set);
 nlohmann::json TruthJson(const ConstraintGraph& graph, const Values& truth,

@@ -25,6 +25,21 @@ DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   EvaluateConstraints(graph, at, &r, &J);
+  // An inequality's row counts as its slack's own direction: with the slack away from 0 that
+  // is what it adds anyway, and at a boundary (slack 0, e.g. a gripper at its lower limit) its
+  // row alone would pin the other variables as an equality does.
+  {
+    int row = 0;
+    for (const Constraint& c : graph.constraints) {
+      if (c.slack_block >= 0) {
+        for (int i = 0; i < c.residual->dimension(); ++i) {
+          J.row(row + i).setZero();
+          J(row + i, graph.blocks[c.slack_block].tangent_offset) = 1;
+        }
+      }
+      row += c.residual->dimension();
+    }
+  }
 
   // Rank and redundancy in one pass: Gram-Schmidt over the rows in constraint order
   // (re-orthogonalised), so a constraint is redundant in the rows that add no new direction.

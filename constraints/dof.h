@@ -8,7 +8,9 @@
 //   rigid = dim(range G ∩ null J) = rank(G) - rank(J G),   internal = dof - rigid.
 // A free object has 6 rigid-body DOF (fewer if all its points are collinear or it is fixed
 // to the world). An inequality adds a slack and an equation, so it never changes the count:
-// ranges bound the motion, they do not remove dimensions.
+// ranges bound the motion, they do not remove dimensions. That holds at a boundary too (slack
+// 0, where the row alone would pin the variables like an equality): an inequality's row is
+// counted as its slack's direction.
 #pragma once
 
 #include <string>

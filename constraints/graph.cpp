@@ -4,12 +4,14 @@
 
 namespace cfuse {
 namespace {
-constexpr std::array<std::pair<JointType, const char*>, 5> kJointTypes = {{
+constexpr std::array<std::pair<JointType, const char*>, 7> kJointTypes = {{
     {JointType::kRevolute, "revolute"},
     {JointType::kContinuous, "continuous"},
     {JointType::kPrismatic, "prismatic"},
     {JointType::kSpherical, "spherical"},
     {JointType::kFixed, "fixed"},
+    {JointType::kPlanar, "planar"},
+    {JointType::kFloating, "floating"},
 }};
 }  // namespace
 
@@ -32,6 +34,18 @@ std::optional<JointType> ParseJointType(std::string_view name) {
     if (name == n) return t;
   }
   return std::nullopt;
+}
+
+Rigid3d JointMotion(JointType type, const Eigen::Vector3d& axis, double q) {
+  switch (type) {
+    case JointType::kRevolute:
+    case JointType::kContinuous:
+      return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
+    case JointType::kPrismatic:
+      return Rigid3d(Eigen::Quaterniond::Identity(), axis * q);
+    default:
+      return Rigid3d();
+  }
 }
 
 bool HasJointVariable(JointType type) {
@@ -62,6 +76,17 @@ static int FindByName(const Items& items, std::string_view name) {
 int ConstraintGraph::FindComponent(std::string_view n) const { return FindByName(components, n); }
 int ConstraintGraph::FindJoint(std::string_view n) const { return FindByName(joints, n); }
 int ConstraintGraph::FindConstraint(std::string_view n) const { return FindByName(constraints, n); }
+
+std::optional<std::pair<int, Rigid3d>> ConstraintGraph::FindFrame(std::string_view n) const {
+  for (size_t c = 0; c < components.size(); ++c) {
+    if (!components[c].rigid) continue;
+    if (components[c].name == n) return std::make_pair(static_cast<int>(c), Rigid3d());
+    for (const ComponentFrame& f : components[c].frames) {
+      if (f.name == n) return std::make_pair(static_cast<int>(c), f.component_from_frame);
+    }
+  }
+  return std::nullopt;
+}
 
 std::vector<std::string> ConstraintGraph::SlotNames(const Constraint& c) const {
   std::vector<std::string> names;

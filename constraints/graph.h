@@ -44,6 +44,14 @@ struct Face {
   SourceLocation where;
 };
 
+// A named frame fixed on a rigid component: a URDF link merged into the component of the link
+// it is fixed to, kept so that forward kinematics and results still report its pose.
+struct ComponentFrame {
+  std::string name;
+  Rigid3d component_from_frame;
+  SourceLocation where;
+};
+
 struct Component {
   std::string name;
   bool rigid = false;  // rigid: 6-DOF pose block; otherwise one 3-DOF point block (§5)
@@ -54,23 +62,38 @@ struct Component {
   std::vector<FeaturePoint> points;  // rigid only; a single-point component has none
   std::vector<Edge> edges;
   std::vector<Face> faces;
+  std::vector<ComponentFrame> frames;  // rigid only; names unique among components and frames
   SourceLocation where;
 
   int FindPoint(std::string_view point_name) const;  // -1 if absent
 };
 
-enum class JointType { kRevolute, kContinuous, kPrismatic, kSpherical, kFixed };
+// URDF's joint types and the spherical joint. A floating joint constrains nothing; a planar one
+// keeps the child moving in the plane normal to its axis.
+enum class JointType { kRevolute, kContinuous, kPrismatic, kSpherical, kFixed, kPlanar, kFloating };
 const char* JointTypeName(JointType type);
 std::optional<JointType> ParseJointType(std::string_view name);
 // True for joint types with a scalar joint variable (revolute, continuous, prismatic).
 bool HasJointVariable(JointType type);
+// Motion(q) of a joint with a variable (below); the identity for the other types.
+Rigid3d JointMotion(JointType type, const Eigen::Vector3d& axis, double q);
 
 // The joint frame J is fixed on both sides: parent_from_joint on the parent and
 // child_from_joint on the child. The joint holds when
 //   (world_from_parent * parent_from_joint)^-1 * (world_from_child * child_from_joint)
 //     = Motion(q),
 // Motion(q) a rotation by q about `axis` (revolute, continuous), a translation by q along it
-// (prismatic), any rotation (spherical) or the identity (fixed).
+// (prismatic), any rotation (spherical), the identity (fixed), a rotation about `axis` and a
+// translation normal to it (planar) or anything (floating).
+//
+// A mimic joint's variable follows another's: q = multiplier * q_leader + offset (URDF's
+// <mimic>), one more constraint.
+struct JointMimic {
+  int leader = -1;  // joint index
+  double multiplier = 1, offset = 0;
+  int constraint = -1;
+};
+
 struct Joint {
   std::string name;
   JointType type = JointType::kFixed;
@@ -80,8 +103,17 @@ struct Joint {
   Eigen::Vector3d axis = Eigen::Vector3d::UnitX();  // unit, in the joint frame
   std::optional<std::pair<double, double>> limits;  // [lower, upper] in rad or m
   double nominal_position = 0;                      // q at the nominal geometry
-  int constraint = -1;                              // index of the joint's constraint
-  int limit_constraint = -1;                        // index of its limit constraint, or -1
+  int constraint = -1;        // index of the joint's constraint (-1: floating)
+  int limit_constraint = -1;  // index of its limit constraint, or -1
+  std::optional<JointMimic> mimic;
+  SourceLocation where;
+};
+
+// A joint an importer merged away (URDF: fixed, or revolute/prismatic with lower = upper,
+// locked at that value): no constraint, but forward kinematics accepts its value.
+struct MergedJoint {
+  std::string name;
+  std::optional<double> locked_at;  // none: a fixed joint
   SourceLocation where;
 };
 
@@ -100,6 +132,7 @@ struct ConstraintGraph {
   std::vector<Block> blocks;
   std::vector<Component> components;
   std::vector<Joint> joints;
+  std::vector<MergedJoint> merged_joints;
   std::vector<Constraint> constraints;
   Values nominal;
 
@@ -108,6 +141,9 @@ struct ConstraintGraph {
   int FindComponent(std::string_view name) const;  // -1 if absent
   int FindJoint(std::string_view name) const;
   int FindConstraint(std::string_view name) const;
+  // A component's frame, or a frame on a component: (component, component_from_frame); the
+  // component's own name gives the identity. nullopt if neither.
+  std::optional<std::pair<int, Rigid3d>> FindFrame(std::string_view name) const;
   // The names of a constraint's slots, for ResidualFunction::Describe.
   std::vector<std::string> SlotNames(const Constraint& c) const;
   std::string Describe(const Constraint& c) const;

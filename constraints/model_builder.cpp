@@ -8,23 +8,12 @@
 #include "constraints/evaluate.h"
 #include "constraints/kinds/fix_pose.h"
 #include "constraints/kinds/joint_residual.h"
+#include "constraints/kinds/mimic_joint.h"
 #include "constraints/kinds/registry.h"
 #include "kernel/check.h"
 
 namespace cfuse {
 namespace {
-
-Rigid3d Motion(JointType type, const Eigen::Vector3d& axis, double q) {
-  switch (type) {
-    case JointType::kRevolute:
-    case JointType::kContinuous:
-      return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
-    case JointType::kPrismatic:
-      return Rigid3d(Eigen::Quaterniond::Identity(), axis * q);
-    default:
-      return Rigid3d();
-  }
-}
 
 std::string Located(const SourceLocation& where) {
   return where.known() ? " (at " + where.ToString() + ")" : "";
@@ -108,6 +97,9 @@ const std::vector<std::pair<int, int>>& ModelBuilder::FindBarePoint(const std::s
 void ModelBuilder::IndexComponent(int component) {
   const Component& c = graph_.components[component];
   component_index_[c.name] = component;
+  for (size_t f = 0; f < c.frames.size(); ++f) {
+    frame_index_[c.frames[f].name] = {component, static_cast<int>(f)};
+  }
   if (!c.rigid) bare_points_[c.name].emplace_back(component, -1);
   for (size_t i = 0; i < c.points.size(); ++i) {
     bare_points_[c.points[i].name].emplace_back(component, static_cast<int>(i));
@@ -123,6 +115,12 @@ void ModelBuilder::RequireUniqueComponent(const std::string& name,
   if (existing >= 0) {
     throw InputError(where, fmt::format("duplicate component name '{}', first defined{}", name,
                                         Located(graph_.components[existing].where)));
+  }
+  if (const auto f = frame_index_.find(name); f != frame_index_.end()) {
+    const ComponentFrame& frame = graph_.components[f->second.first].frames[f->second.second];
+    throw InputError(where,
+                     fmt::format("'{}' is already a frame on component '{}'{}", name,
+                                 graph_.components[f->second.first].name, Located(frame.where)));
   }
 }
 
@@ -202,6 +200,28 @@ int ModelBuilder::AddFeaturePoint(int component, const std::string& name,
   return static_cast<int>(c.points.size()) - 1;
 }
 
+void ModelBuilder::AddFrame(int component, const std::string& name,
+                            const Rigid3d& component_from_frame, const SourceLocation& where) {
+  CFUSE_CHECK(graph_.components.at(component).rigid);
+  RequireIdentifier(name, "frame", where);
+  RequireUniqueComponent(name, where);
+  Component& c = graph_.components[component];
+  c.frames.push_back({name, component_from_frame, where});
+  c.frames.back().component_from_frame.rotation.normalize();
+  frame_index_[name] = {component, static_cast<int>(c.frames.size()) - 1};
+}
+
+std::optional<std::pair<int, Rigid3d>> ModelBuilder::FindFrame(const std::string& name) const {
+  if (const int c = FindComponent(name); c >= 0 && graph_.components[c].rigid) {
+    return std::make_pair(c, Rigid3d());
+  }
+  const auto f = frame_index_.find(name);
+  if (f == frame_index_.end()) return std::nullopt;
+  return std::make_pair(
+      f->second.first,
+      graph_.components[f->second.first].frames[f->second.second].component_from_frame);
+}
+
 void ModelBuilder::AddEdge(int component, const std::string& name, int a, int b,
                            const SourceLocation& where) {
   Component& c = graph_.components.at(component);
@@ -249,6 +269,9 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
                                  Located(graph_.joints[FindJoint(spec.name)].where)));
   }
   RequireUniqueConstraint(spec.name, spec.where);
+  if (merged_joint_names_.count(spec.name)) {
+    throw InputError(spec.where, fmt::format("duplicate joint name '{}'", spec.name));
+  }
   const Component& parent = graph_.components.at(spec.parent);
   const Component& child = graph_.components.at(spec.child);
   for (const Component* c : {&parent, &child}) {
@@ -320,8 +343,8 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
   joint.where = spec.where;
 
   const Rigid3d world_from_parent = graph_.nominal.poses[graph_.blocks[parent.block].index];
-  const Rigid3d world_from_joint_c =
-      world_from_parent * joint.parent_from_joint * Motion(spec.type, joint.axis, spec.position);
+  const Rigid3d world_from_joint_c = world_from_parent * joint.parent_from_joint *
+                                     JointMotion(spec.type, joint.axis, spec.position);
   if (!child.pose_given) {
     for (const Constraint& k : graph_.constraints) {
       if (std::find(k.blocks.begin(), k.blocks.end(), child.block) != k.blocks.end()) {
@@ -340,9 +363,11 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
   }
 
   const JointGeometry geometry(joint.parent_from_joint, joint.child_from_joint, joint.axis);
-  ConstraintParts parts{MakeJointResidual(spec.type, geometry), {parent.block, child.block}, -1};
-  joint.constraint = AddConstraint(spec.name, fmt::format("{} joint", JointTypeName(spec.type)),
-                                   std::move(parts), spec.where);
+  if (spec.type != JointType::kFloating) {
+    ConstraintParts parts{MakeJointResidual(spec.type, geometry), {parent.block, child.block}, -1};
+    joint.constraint = AddConstraint(spec.name, fmt::format("{} joint", JointTypeName(spec.type)),
+                                     std::move(parts), spec.where);
+  }
   const bool prismatic = spec.type == JointType::kPrismatic;
   // A revolute range of a full turn or more does not restrict the angle.
   if (spec.limits && (prismatic || spec.limits->second - spec.limits->first < 2 * M_PI)) {
@@ -360,6 +385,72 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
   joint_index_[joint.name] = static_cast<int>(graph_.joints.size());
   graph_.joints.push_back(std::move(joint));
   return static_cast<int>(graph_.joints.size()) - 1;
+}
+
+void ModelBuilder::AddMergedJoint(const std::string& name, std::optional<double> locked_at,
+                                  const SourceLocation& where) {
+  RequireIdentifier(name, "joint", where);
+  if (FindJoint(name) >= 0 || merged_joint_names_.count(name)) {
+    throw InputError(where, fmt::format("duplicate joint name '{}'", name));
+  }
+  merged_joint_names_.insert(name);
+  graph_.merged_joints.push_back({name, locked_at, where});
+}
+
+void ModelBuilder::AddMimic(int follower, int leader, double multiplier, double offset,
+                            const SourceLocation& where) {
+  const Joint& f = graph_.joints.at(follower);
+  const Joint& l = graph_.joints.at(leader);
+  if (follower == leader) {
+    throw InputError(where, fmt::format("joint '{}' mimics itself", f.name));
+  }
+  for (const Joint* j : {&f, &l}) {
+    if (!HasJointVariable(j->type)) {
+      throw InputError(where, fmt::format("joint '{}' mimics joint '{}', but a {} joint has no "
+                                          "variable",
+                                          f.name, l.name, JointTypeName(j->type)));
+    }
+  }
+  if (f.mimic) {
+    throw InputError(where, fmt::format("joint '{}' already mimics joint '{}'", f.name,
+                                        graph_.joints[f.mimic->leader].name));
+  }
+  // A chain of mimics must end: the leader may not follow the follower, directly or not.
+  for (int j = leader; graph_.joints[j].mimic; j = graph_.joints[j].mimic->leader) {
+    if (graph_.joints[j].mimic->leader == follower) {
+      throw InputError(
+          where, fmt::format("joint '{}' mimics joint '{}', which mimics it back", f.name, l.name));
+    }
+  }
+  if (!std::isfinite(multiplier) || !std::isfinite(offset)) {
+    throw InputError(where, fmt::format("joint '{}': the mimic multiplier and offset must be "
+                                        "finite",
+                                        f.name));
+  }
+  // The slots: the distinct pose blocks of the two joints.
+  std::vector<int> blocks;
+  auto slot = [&](int component) {
+    const int b = graph_.components[component].block;
+    const auto it = std::find(blocks.begin(), blocks.end(), b);
+    if (it != blocks.end()) return static_cast<int>(it - blocks.begin());
+    blocks.push_back(b);
+    return static_cast<int>(blocks.size()) - 1;
+  };
+  auto side = [&](const Joint& j) {
+    MimicResidual::Side s{JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
+                          j.type == JointType::kPrismatic, 0, 0};
+    s.parent_slot = slot(j.parent);
+    s.child_slot = slot(j.child);
+    return s;
+  };
+  MimicResidual::Side fs = side(f), ls = side(l);
+  const int slots = static_cast<int>(blocks.size());
+  ConstraintParts parts{
+      std::make_shared<MimicResidual>(std::move(fs), std::move(ls), slots, multiplier, offset),
+      blocks, -1};
+  const std::string name = UniqueConstraintName(f.name + "_mimic");
+  const int constraint = AddConstraint(name, "mimic joint", std::move(parts), where);
+  graph_.joints[follower].mimic = JointMimic{leader, multiplier, offset, constraint};
 }
 
 int ModelBuilder::AddSlack(const std::string& constraint_name) {
@@ -426,6 +517,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   const int block0 = static_cast<int>(graph_.blocks.size());
   const int component0 = static_cast<int>(graph_.components.size());
   const int constraint0 = static_cast<int>(graph_.constraints.size());
+  const int joint0 = static_cast<int>(graph_.joints.size());
   if (graph_.components.size() + other.components.size() > size_t(kMaxComponents) ||
       graph_.constraints.size() + other.constraints.size() > size_t(kMaxConstraints)) {
     throw InputError(where, fmt::format("including '{}' makes the model larger than {} components "
@@ -433,7 +525,14 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
                                         other.source, kMaxComponents, kMaxConstraints));
   }
   for (const Component& c : other.components) {
-    if (FindComponent(prefix + c.name) >= 0) {
+    for (const ComponentFrame& f : c.frames) {
+      if (FindFrame(prefix + f.name)) {
+        throw InputError(where, fmt::format("including '{}' defines frame '{}'{} again, as a "
+                                            "component or frame already defined",
+                                            other.source, prefix + f.name, Located(f.where)));
+      }
+    }
+    if (FindComponent(prefix + c.name) >= 0 || frame_index_.count(prefix + c.name)) {
       throw InputError(
           where, fmt::format("including '{}' defines component '{}'{} again, first "
                              "defined{}",
@@ -471,6 +570,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   for (Component c : other.components) {
     c.name = prefix + c.name;
     c.block += block0;
+    for (ComponentFrame& f : c.frames) f.name = prefix + f.name;
     if (c.rigid && num_feature_points_ + static_cast<int>(c.points.size()) > kMaxFeaturePoints) {
       throw InputError(where, fmt::format("including '{}' makes the model larger than {} points",
                                           other.source, kMaxFeaturePoints));
@@ -486,12 +586,24 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
     constraint_index_[c.name] = static_cast<int>(graph_.constraints.size());
     graph_.constraints.push_back(std::move(c));
   }
+  for (MergedJoint m : other.merged_joints) {
+    m.name = prefix + m.name;
+    if (FindJoint(m.name) >= 0 || !merged_joint_names_.insert(m.name).second) {
+      throw InputError(where, fmt::format("including '{}' defines joint '{}'{} again", other.source,
+                                          m.name, Located(m.where)));
+    }
+    graph_.merged_joints.push_back(std::move(m));
+  }
   for (Joint j : other.joints) {
     j.name = prefix + j.name;
     j.parent += component0;
     j.child += component0;
-    j.constraint += constraint0;
+    if (j.constraint >= 0) j.constraint += constraint0;
     if (j.limit_constraint >= 0) j.limit_constraint += constraint0;
+    if (j.mimic) {
+      j.mimic->leader += joint0;
+      j.mimic->constraint += constraint0;
+    }
     joint_index_[j.name] = static_cast<int>(graph_.joints.size());
     graph_.joints.push_back(std::move(j));
   }

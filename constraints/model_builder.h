@@ -10,6 +10,7 @@
 #include <optional>
 #include <string>
 #include <unordered_map>
+#include <unordered_set>
 
 #include "constraints/graph.h"
 #include "constraints/kinds/kind_support.h"
@@ -59,6 +60,12 @@ class ModelBuilder {
   void SetNominalPose(int component, const Rigid3d& world_from_component);
   int AddFeaturePoint(int component, const std::string& name, const Eigen::Vector3d& position,
                       const SourceLocation& where);
+  // A named frame on a rigid component (a merged URDF link); its name is unique among
+  // components and frames.
+  void AddFrame(int component, const std::string& name, const Rigid3d& component_from_frame,
+                const SourceLocation& where);
+  // A rigid component (identity) or a frame on one; nullopt if neither.
+  std::optional<std::pair<int, Rigid3d>> FindFrame(const std::string& name) const;
   void AddEdge(int component, const std::string& name, int a, int b, const SourceLocation& where);
   void AddFace(int component, const std::string& name, std::vector<int> loop,
                const SourceLocation& where);
@@ -69,6 +76,13 @@ class ModelBuilder {
   // child_from_joint is chosen so that the joint is at q0 in the nominal geometry. Add a
   // parent's joint before its children's.
   int AddJoint(const JointSpec& spec);
+  // Records a joint an importer merged away (graph.h, MergedJoint).
+  void AddMergedJoint(const std::string& name, std::optional<double> locked_at,
+                      const SourceLocation& where);
+  // Makes joint `follower` mimic `leader`: q_f = multiplier * q_l + offset, one constraint
+  // named FOLLOWER_mimic. Both need a joint variable; chains of mimics must not close.
+  void AddMimic(int follower, int leader, double multiplier, double offset,
+                const SourceLocation& where);
 
   // A slack block for a constraint about to be added.
   int AddSlack(const std::string& constraint_name);
@@ -102,6 +116,8 @@ class ModelBuilder {
 
   ConstraintGraph graph_;
   std::unordered_map<std::string, int> component_index_, joint_index_, constraint_index_;
+  std::unordered_map<std::string, std::pair<int, int>> frame_index_;  // (component, frame)
+  std::unordered_set<std::string> merged_joint_names_;
   std::unordered_map<std::string, std::vector<std::pair<int, int>>> bare_points_;
   int num_feature_points_ = 0;
   int tangent_dim_ = 0;

@@ -51,6 +51,7 @@ class Loader {
   void ReadIncludes(const Document& doc, const YAML::Node& node, const std::string& base_dir);
   void ReadComponents(const Document& doc, const YAML::Node& node);
   void ReadPoints(const Document& doc, const YAML::Node& node);
+  void ReadMarkers(const Document& doc, const YAML::Node& node);
   void ReadJoints(const Document& doc, const YAML::Node& node);
   void ReadFixed(const Document& doc, const YAML::Node& node);
   void ReadConstraints(const Document& doc, const YAML::Node& node);
@@ -73,9 +74,8 @@ double Loader::Quantity1(const Document& doc, const YAML::Node& node, Quantity q
   const double v = std::strtod(begin, &end);
   if (end != begin && *end == '\0' && errno == 0) {
     if (!std::isfinite(v)) doc.Fail(node, fmt::format("invalid {}: '{}' is not finite", what, s));
-    if (q == Quantity::Angle()) return v * units_.angle;
-    if (q == Quantity::Length()) return v * units_.length;
-    return v;  // dimensionless: quaternions, axes
+    // Dimensionless (quaternions, axes) as written; m/rad (a mimic multiplier) scaled by both.
+    return v * std::pow(units_.length, q.length) * std::pow(units_.angle, q.angle);
   }
   const Lowerer lower(*builder_, doc.Origin(node));
   return lower.LowerConstantScalar(s, q, what);
@@ -210,12 +210,17 @@ void Loader::ReadComponents(const Document& doc, const YAML::Node& node) {
                                 "component without feature points)",
                                 what, name));
     }
-    const auto entries = doc.Entries(value, what, {"pose", "points", "edges", "faces"});
+    const auto entries = doc.Entries(value, what, {"pose", "points", "edges", "faces", "frames"});
     ModelBuilder::RequireIdentifier(name, "component", doc.Loc(key));
     std::optional<Rigid3d> pose;
     if (YAML::Node n = Document::Find(entries, "pose"); Present(n)) pose = Pose(doc, n, "pose");
     const int c = builder_->AddRigidComponent(name, pose, doc.Loc(key));
 
+    if (YAML::Node frames = Document::Find(entries, "frames"); Present(frames)) {
+      for (const auto& [fk, fv] : doc.Entries(frames, what + " frames", {})) {
+        builder_->AddFrame(c, fk.Scalar(), Pose(doc, fv, "a frame"), doc.Loc(fk));
+      }
+    }
     if (YAML::Node points = Document::Find(entries, "points"); Present(points)) {
       for (const auto& [pk, pv] : doc.Entries(points, what + " points", {})) {
         builder_->AddFeaturePoint(c, pk.Scalar(),
@@ -264,6 +269,40 @@ void Loader::ReadPoints(const Document& doc, const YAML::Node& node) {
   }
 }
 
+// Named points fixed on a rigid component or on a frame of one (a URDF link merged into its
+// parent's component), as from motion-capture markers: feature points of that component.
+void Loader::ReadMarkers(const Document& doc, const YAML::Node& node) {
+  for (const auto& [key, value] : doc.Entries(node, "markers", {})) {
+    const std::string name = key.Scalar();
+    const std::string what = fmt::format("marker '{}'", name);
+    if (value.IsNull()) doc.Fail(key, fmt::format("{} needs 'link' and 'xyz'", what));
+    const auto entries = doc.Entries(value, what, {"link", "xyz"});
+    const YAML::Node link = Document::Find(entries, "link");
+    const YAML::Node xyz = Document::Find(entries, "xyz");
+    if (!Present(link)) doc.Fail(value, fmt::format("{} needs a 'link'", what));
+    if (!Present(xyz))
+      doc.Fail(value, fmt::format("{} needs 'xyz', its position on the link", what));
+    const std::string frame = doc.Scalar(link, "a link");
+    const auto found = builder_->FindFrame(frame);
+    if (!found) {
+      std::vector<std::string> names;
+      for (const Component& c : builder_->graph().components) {
+        if (!c.rigid) continue;
+        names.push_back(c.name);
+        for (const ComponentFrame& f : c.frames) names.push_back(f.name);
+      }
+      const std::string s = Suggest(frame, names);
+      doc.Fail(link, fmt::format("{}: no rigid component or frame '{}'{}", what, frame,
+                                 s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
+    }
+    const auto& [component, component_from_frame] = *found;
+    builder_->AddFeaturePoint(
+        component, name,
+        component_from_frame * Vector(doc, xyz, Quantity::Length(), "a marker's position"),
+        doc.Loc(key));
+  }
+}
+
 int Loader::RequireComponent(const Document& doc, const YAML::Node& name_node,
                              const char* role) const {
   const std::string name = doc.Scalar(name_node, role);
@@ -282,6 +321,7 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
   struct Pending {
     JointSpec spec;
     YAML::Node key;
+    YAML::Node mimic;
   };
   std::vector<Pending> pending;
   for (const auto& [key, value] : doc.Entries(node, "joints", {})) {
@@ -291,7 +331,7 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       doc.Fail(key,
                fmt::format("{} has no definition: it needs a type, a parent and a child", what));
     const auto entries = doc.Entries(
-        value, what, {"type", "parent", "child", "origin", "axis", "limits", "position"});
+        value, what, {"type", "parent", "child", "origin", "axis", "limits", "position", "mimic"});
     JointSpec spec;
     spec.name = name;
     spec.where = doc.Loc(key);
@@ -301,7 +341,7 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
     const std::optional<JointType> t = ParseJointType(type_name);
     if (!t) {
       doc.Fail(type, fmt::format("unknown joint type '{}'; the types are revolute, continuous, "
-                                 "prismatic, spherical, fixed",
+                                 "prismatic, spherical, fixed, planar, floating",
                                  type_name));
     }
     spec.type = *t;
@@ -341,7 +381,7 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
     const bool has_variable = HasJointVariable(spec.type);
     const Quantity q = spec.type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
     const YAML::Node axis = Document::Find(entries, "axis");
-    if (has_variable) {
+    if (has_variable || spec.type == JointType::kPlanar) {
       if (!Present(axis)) doc.Fail(value, fmt::format("{} ({}) needs an 'axis'", what, type_name));
       spec.axis = Vector(doc, axis, Quantity{}, "axis");
       if (!(spec.axis.norm() > 1e-9))
@@ -365,7 +405,11 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       if (!has_variable) doc.Fail(n, fmt::format("a {} joint has no position", type_name));
       spec.position = Quantity1(doc, n, q, "joint position");
     }
-    pending.push_back({spec, key});
+    const YAML::Node mimic = Document::Find(entries, "mimic");
+    if (Present(mimic) && !has_variable) {
+      doc.Fail(mimic, fmt::format("a {} joint has no variable to mimic with", type_name));
+    }
+    pending.push_back({spec, key, mimic});
   }
   // Parents first: a child's nominal pose may derive from its parent's.
   std::vector<bool> done(pending.size(), false);
@@ -399,6 +443,39 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       doc.Fail(pending[i].key,
                fmt::format("joint '{}' is part of a cycle of joints", pending[i].spec.name));
     }
+  }
+  // Mimics, once every joint exists: q = multiplier * q_leader + offset.
+  for (const Pending& p : pending) {
+    if (!Present(p.mimic)) continue;
+    const std::string what = fmt::format("joint '{}'", p.spec.name);
+    const auto entries = doc.Entries(p.mimic, what + " mimic", {"joint", "multiplier", "offset"});
+    const YAML::Node leader = Document::Find(entries, "joint");
+    if (!Present(leader)) doc.Fail(p.mimic, fmt::format("{}: mimic needs a 'joint'", what));
+    const std::string leader_name = doc.Scalar(leader, "a joint name");
+    const int lead = builder_->FindJoint(leader_name);
+    if (lead < 0) {
+      std::vector<std::string> names;
+      for (const Joint& j : builder_->graph().joints) names.push_back(j.name);
+      const std::string s = Suggest(leader_name, names);
+      doc.Fail(leader,
+               fmt::format("{} mimics joint '{}', which does not exist{}", what, leader_name,
+                           s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
+    }
+    auto quantity = [](JointType t) {
+      return t == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+    };
+    double multiplier = 1, offset = 0;
+    if (YAML::Node m = Document::Find(entries, "multiplier"); Present(m)) {
+      // In the follower's unit per the leader's: a number between two revolute joints.
+      multiplier =
+          Quantity1(doc, m, quantity(p.spec.type) / quantity(builder_->graph().joints[lead].type),
+                    "mimic multiplier");
+    }
+    if (YAML::Node o = Document::Find(entries, "offset"); Present(o)) {
+      offset = Quantity1(doc, o, quantity(p.spec.type), "mimic offset");
+    }
+    builder_->AddMimic(builder_->FindJoint(p.spec.name), lead, multiplier, offset,
+                       doc.Loc(p.mimic));
   }
 }
 
@@ -527,9 +604,9 @@ ConstraintGraph Loader::Load(const std::string& display, const std::string& cano
     doc.Fail(root,
              "a model file is a mapping with keys such as components, points, joints, constraints");
   }
-  const auto entries = doc.Entries(
-      root, "the model",
-      {"name", "units", "include", "components", "points", "joints", "fixed", "constraints"});
+  const auto entries = doc.Entries(root, "the model",
+                                   {"name", "units", "include", "components", "points", "markers",
+                                    "joints", "fixed", "constraints"});
   std::string name = fs::path(display).stem().string();
   if (YAML::Node n = Document::Find(entries, "name"); Present(n)) name = doc.Scalar(n, "name");
   builder_ = std::make_unique<ModelBuilder>(name, display);
@@ -539,6 +616,7 @@ ConstraintGraph Loader::Load(const std::string& display, const std::string& cano
   if (YAML::Node n = Document::Find(entries, "include"); Present(n)) ReadIncludes(doc, n, base_dir);
   if (YAML::Node n = Document::Find(entries, "components"); Present(n)) ReadComponents(doc, n);
   if (YAML::Node n = Document::Find(entries, "points"); Present(n)) ReadPoints(doc, n);
+  if (YAML::Node n = Document::Find(entries, "markers"); Present(n)) ReadMarkers(doc, n);
   if (YAML::Node n = Document::Find(entries, "joints"); Present(n)) ReadJoints(doc, n);
   if (YAML::Node n = Document::Find(entries, "fixed"); Present(n)) ReadFixed(doc, n);
   if (YAML::Node n = Document::Find(entries, "constraints"); Present(n)) ReadConstraints(doc, n);

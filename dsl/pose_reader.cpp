@@ -64,7 +64,45 @@ PoseSet Read(const std::string& display, const std::string& text) {
   return set;
 }
 
+const FileKind kJointFile{"joint values", "a joint-values file maps joint names to numbers",
+                          16u << 20};
+
+std::vector<JointValue> ReadValues(const std::string& display, const std::string& text) {
+  CheckText(display, text, kJointFile);
+  const Document doc(display, text, kJointFile);
+  const YAML::Node root = doc.Parse();
+  if (!root.IsMap()) {
+    doc.Fail(root, "a joint-values file is a mapping {\"joint\": value, ...}");
+  }
+  std::vector<JointValue> out;
+  for (const auto& [key, value] : doc.Entries(root, "the joint values", {})) {
+    JointValue v;
+    v.name = key.Scalar();
+    v.where = doc.Loc(key);
+    v.where.element = fmt::format("joint '{}'", v.name);
+    if (value.IsMap()) {
+      const auto entries = doc.Entries(value, v.where.element, {"value", "sigma"});
+      const YAML::Node n = Document::Find(entries, "value");
+      if (!Present(n)) doc.Fail(value, fmt::format("{} needs 'value'", v.where.element));
+      v.value = Number(doc, n, v.where.element);
+    } else {
+      v.value = Number(doc, value, v.where.element);
+    }
+    out.push_back(std::move(v));
+  }
+  return out;
+}
+
 }  // namespace
+
+std::vector<JointValue> ReadJointValues(const std::string& path) {
+  return ReadValues(path, ReadTextFile(path, SourceLocation(), kJointFile));
+}
+
+std::vector<JointValue> ReadJointValuesFromString(std::string_view text,
+                                                  const std::string& display_name) {
+  return ReadValues(display_name, std::string(text));
+}
 
 PoseSet ReadPoses(const std::string& path) {
   return Read(path, ReadTextFile(path, SourceLocation(), kPoseFile));

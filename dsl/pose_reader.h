@@ -13,12 +13,20 @@
 
 #include <string>
 #include <string_view>
+#include <vector>
 
+#include "constraints/forward_kinematics.h"
 #include "kernel/pose_set.h"
 
 namespace cfuse::dsl {
 
 PoseSet ReadPoses(const std::string& path);
 PoseSet ReadPosesFromString(std::string_view text, const std::string& display_name);
+
+// Joint values for `cfuse fk` (docs/formats.md): a mapping of joint names to numbers (radians,
+// metres), or to {"value": number} as in the `joints` of a results file.
+std::vector<JointValue> ReadJointValues(const std::string& path);
+std::vector<JointValue> ReadJointValuesFromString(std::string_view text,
+                                                  const std::string& display_name);
 
 }  // namespace cfuse::dsl

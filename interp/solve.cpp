@@ -107,9 +107,21 @@ Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
 
 // The guess's poses and points in place of the starts; unknown names are input errors.
 void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* values) {
+  // A frame on a component (a merged URDF link, as results and `fk` write them) places its
+  // component, unless the component's own pose is given too.
+  for (const NamedPose& p : guess.components) {
+    if (graph.FindComponent(p.name) >= 0) continue;
+    const auto frame = graph.FindFrame(p.name);
+    if (!frame) throw InputError(p.where, fmt::format("unknown component '{}'", p.name));
+    const auto& [c, component_from_frame] = *frame;
+    const bool given =
+        std::any_of(guess.components.begin(), guess.components.end(),
+                    [&](const NamedPose& q) { return q.name == graph.components[c].name; });
+    if (!given) PoseOf(graph, *values, c) = p.pose * component_from_frame.Inverse();
+  }
   for (const NamedPose& p : guess.components) {
     const int c = graph.FindComponent(p.name);
-    if (c < 0) throw InputError(p.where, fmt::format("unknown component '{}'", p.name));
+    if (c < 0) continue;  // a frame, above
     if (!graph.components[c].rigid) {
       throw InputError(p.where,
                        fmt::format("'{}' is a single point: give it under 'points'", p.name));

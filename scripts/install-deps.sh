@@ -8,6 +8,8 @@ packages=(
   libeigen3-dev        # linear algebra, AutoDiff module (kernel, constraints)
   libyaml-cpp-dev      # model DSL parser (dsl)
   liburdfdom-dev       # URDF import (importers)
+  libtinyxml-dev       # urdfdom's XML parser, read first for error locations (importers)
+  libconsole-bridge-dev  # urdfdom's logging, captured into error messages (importers)
   libopencv-dev        # cameras, PnP, images (vision, cli)
   libcli11-dev         # command-line parsing (cli)
   nlohmann-json3-dev   # measurement and result files (cli, io)

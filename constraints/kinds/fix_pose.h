@@ -31,6 +31,10 @@ class FixPoseResidual : public AutoDiffResidual<FixPoseResidual> {
     }
   }
 
+  const Rigid3d& target() const { return target_; }
+  bool fixes_position() const { return position_; }
+  bool fixes_orientation() const { return orientation_; }
+
   std::string Describe(std::span<const std::string> names) const override {
     const Eigen::Vector3d t = target_.translation;
     const Eigen::Quaterniond q = target_.rotation;

@@ -6,6 +6,7 @@
 #include "constraints/kinds/joint_residual.h"
 #include "constraints/kinds/parallel.h"
 #include "constraints/kinds/perpendicular.h"
+#include "constraints/kinds/planar_joint.h"
 #include "constraints/kinds/prismatic_joint.h"
 #include "constraints/kinds/revolute_joint.h"
 #include "constraints/kinds/rigid.h"
@@ -47,6 +48,10 @@ std::shared_ptr<const ResidualFunction> MakeJointResidual(JointType type,
       return std::make_shared<JointResidual<SphericalJoint>>(geometry, name);
     case JointType::kFixed:
       return std::make_shared<JointResidual<FixedJoint>>(geometry, name);
+    case JointType::kPlanar:
+      return std::make_shared<JointResidual<PlanarJoint>>(geometry, name);
+    case JointType::kFloating:
+      break;  // constrains nothing: no residual
   }
   CFUSE_CHECK_MSG(false, "unknown joint type");
   return nullptr;

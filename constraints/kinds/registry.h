@@ -24,7 +24,8 @@ struct RelationKind {
 const RelationKind* FindRelation(std::string_view name);
 const std::vector<RelationKind>& AllRelations();
 
-// The residual of a joint of this type, over the slots (parent pose, child pose).
+// The residual of a joint of this type, over the slots (parent pose, child pose); not for a
+// floating joint, which has none.
 std::shared_ptr<const ResidualFunction> MakeJointResidual(JointType type,
                                                           const JointGeometry& geometry);
 

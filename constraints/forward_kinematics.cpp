@@ -1,0 +1,148 @@
+#include "constraints/forward_kinematics.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include "constraints/kinds/fix_pose.h"
+
+namespace cfuse {
+
+std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
+                                                  const std::vector<JointValue>& values) {
+  std::map<std::string, double> given;
+  std::vector<const JointValue*> mimics;  // checked once the leaders are known
+  for (const JointValue& v : values) {
+    const auto& [name, value, where] = v;
+    if (!std::isfinite(value)) {
+      throw InputError(where, fmt::format("joint '{}': the value is not finite", name));
+    }
+    if (given.count(name) || std::any_of(mimics.begin(), mimics.end(),
+                                         [&](const JointValue* m) { return m->name == name; })) {
+      throw InputError(where, fmt::format("joint '{}' is given twice", name));
+    }
+    const int j = graph.FindJoint(name);
+    if (j < 0) {
+      const auto merged = std::find_if(graph.merged_joints.begin(), graph.merged_joints.end(),
+                                       [&](const MergedJoint& m) { return m.name == name; });
+      if (merged == graph.merged_joints.end()) {
+        throw InputError(where, fmt::format("'{}' is not a joint of model '{}'", name, graph.name));
+      }
+      // A merged joint cannot move: its own value (or none) only.
+      if (!merged->locked_at) {
+        throw InputError(where, fmt::format("joint '{}' is fixed and has no variable", name));
+      }
+      if (std::abs(value - *merged->locked_at) > 1e-12 * std::max(1.0, std::abs(value))) {
+        throw InputError(where, fmt::format("joint '{}' is locked at {} by its limits (lower = "
+                                            "upper), not {}",
+                                            name, *merged->locked_at, value));
+      }
+      continue;
+    }
+    const Joint& joint = graph.joints[j];
+    if (!HasJointVariable(joint.type)) {
+      throw InputError(where, fmt::format("joint '{}' is {} and has no variable", name,
+                                          JointTypeName(joint.type)));
+    }
+    if (joint.mimic) {
+      mimics.push_back(&v);
+      continue;
+    }
+    given.emplace(name, value);
+  }
+  std::map<std::string, double> out;
+  // A mimic's leader may itself mimic another (a chain the builder keeps acyclic).
+  std::function<double(int)> value_of = [&](int j) -> double {
+    const Joint& joint = graph.joints[j];
+    if (joint.mimic) {
+      return joint.mimic->multiplier * value_of(joint.mimic->leader) + joint.mimic->offset;
+    }
+    const auto it = given.find(joint.name);
+    return it == given.end() ? 0.0 : it->second;
+  };
+  for (size_t j = 0; j < graph.joints.size(); ++j) {
+    if (HasJointVariable(graph.joints[j].type)) {
+      out[graph.joints[j].name] = value_of(static_cast<int>(j));
+    }
+  }
+  // A mimic joint's value may be given when it agrees with its leader's (as a full
+  // configuration lists every joint).
+  for (const JointValue* m : mimics) {
+    const double expected = out.at(m->name);
+    if (std::abs(m->value - expected) > 1e-9 * std::max(1.0, std::abs(expected))) {
+      const Joint& joint = graph.joints[graph.FindJoint(m->name)];
+      throw InputError(
+          m->where, fmt::format("joint '{}' mimics joint '{}': its value is {} "
+                                "times that one plus {}, {}, not {}",
+                                m->name, graph.joints[joint.mimic->leader].name,
+                                joint.mimic->multiplier, joint.mimic->offset, expected, m->value));
+    }
+  }
+  return out;
+}
+
+Values ForwardKinematics(const ConstraintGraph& graph,
+                         const std::map<std::string, double>& joint_values) {
+  Values values = graph.nominal;
+  const int n = static_cast<int>(graph.components.size());
+  std::vector<int> parent_joint(n, -1);
+  std::vector<std::vector<int>> child_joints(n);
+  for (size_t j = 0; j < graph.joints.size(); ++j) {
+    parent_joint[graph.joints[j].child] = static_cast<int>(j);
+    child_joints[graph.joints[j].parent].push_back(static_cast<int>(j));
+  }
+  auto pose = [&](int c) -> Rigid3d& {
+    return values.poses[graph.blocks[graph.components[c].block].index];
+  };
+  // Roots at a fixed pose where the model gives one.
+  for (const Constraint& k : graph.constraints) {
+    const auto* fix = dynamic_cast<const FixPoseResidual*>(k.residual.get());
+    if (!fix || !fix->fixes_position() || !fix->fixes_orientation()) continue;
+    for (int c = 0; c < n; ++c) {
+      if (graph.components[c].rigid && graph.components[c].block == k.blocks[0] &&
+          parent_joint[c] < 0) {
+        pose(c) = fix->target();
+      }
+    }
+  }
+  // Depth first from each root (iteratively: a chain may be long).
+  std::vector<int> stack;
+  for (int c = 0; c < n; ++c) {
+    if (graph.components[c].rigid && parent_joint[c] < 0) stack.push_back(c);
+  }
+  while (!stack.empty()) {
+    const int c = stack.back();
+    stack.pop_back();
+    for (int j : child_joints[c]) {
+      const Joint& joint = graph.joints[j];
+      double q = joint.nominal_position;
+      if (HasJointVariable(joint.type)) {
+        const auto it = joint_values.find(joint.name);
+        q = it == joint_values.end() ? 0.0 : it->second;
+      }
+      pose(joint.child) = pose(c) * joint.parent_from_joint *
+                          JointMotion(joint.type, joint.axis, q) * joint.child_from_joint.Inverse();
+      pose(joint.child).rotation.normalize();
+      stack.push_back(joint.child);
+    }
+  }
+  return values;
+}
+
+std::vector<std::pair<std::string, Rigid3d>> FramePoses(const ConstraintGraph& graph,
+                                                        const Values& values) {
+  std::vector<std::pair<std::string, Rigid3d>> out;
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    const Rigid3d& world_from_component = values.poses[graph.blocks[c.block].index];
+    out.emplace_back(c.name, world_from_component);
+    for (const ComponentFrame& f : c.frames) {
+      out.emplace_back(f.name, world_from_component * f.component_from_frame);
+    }
+  }
+  return out;
+}
+
+}  // namespace cfuse
