@@ -56,6 +56,7 @@ struct SimulateCommandOptions {
   double clutter = 0;
   double occlusion = 0;
   bool labels = false;
+  bool sample_joints = false;
   std::string output;  // measurements
   std::string truth;
 };

@@ -63,6 +63,8 @@ int main(int argc, char** argv) {
   sim_cmd->add_option("--occlusion", sim.occlusion, "Fraction of model points not measured")
       ->check(CLI::Range(0.0, 1.0));
   sim_cmd->add_flag("--labels", sim.labels, "Keep labels (and order) on the real measurements");
+  sim_cmd->add_flag("--sample-joints", sim.sample_joints,
+                    "Joint variables uniform inside their limits (articulated models)");
   sim_cmd->add_option("-o,--output", sim.output, "Measurement file to write")->required();
   sim_cmd->add_option("--truth", sim.truth, "Truth file to write")->required();
 

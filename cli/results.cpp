@@ -55,7 +55,8 @@ std::vector<JointEstimate> EstimateJoints(const ConstraintGraph& graph,
   for (const Joint& j : graph.joints) {
     if (!HasJointVariable(j.type)) continue;
     const JointValueFunction q(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
-                               j.type == JointType::kPrismatic);
+                               j.type == JointType::kPrismatic,
+                               JointValueFunction::BranchCentre(j));
     const std::vector<int> blocks = {graph.components[j.parent].block,
                                      graph.components[j.child].block};
     Eigen::VectorXd value;

@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <cmath>
 #include <numeric>
 #include <optional>
 
+#include "constraints/forward_kinematics.h"
 #include "interp/schedule.h"
 #include "interp/solve.h"
 #include "kernel/batch_solver.h"
@@ -37,11 +39,54 @@ std::vector<ModelPointRef> ModelPoints(const ConstraintGraph& g) {
   return out;
 }
 
+// Joint variables drawn inside their limits, the components placed by forward kinematics, and
+// every slack set from its constraint.
+Values JointSample(const ConstraintGraph& g, std::mt19937& rng, double extent) {
+  std::vector<JointValue> values;
+  for (const Joint& j : g.joints) {
+    if (!HasJointVariable(j.type) || j.mimic) continue;
+    double lo = -M_PI, hi = M_PI;
+    if (j.limits && j.limit_constraint >= 0) {
+      const double margin = 0.1 * (j.limits->second - j.limits->first);
+      lo = j.limits->first + margin;
+      hi = j.limits->second - margin;
+    } else if (j.type == JointType::kPrismatic) {
+      lo = -0.1 * extent;
+      hi = 0.1 * extent;
+    }
+    values.push_back({j.name, std::uniform_real_distribution<double>(lo, hi)(rng), {}});
+  }
+  Values sample = ForwardKinematics(g, CompleteJointValues(g, values));
+  double g_value = 0;
+  for (const Constraint& c : g.constraints) {
+    if (c.slack_block < 0 || c.residual->dimension() != 1) continue;
+    double& slack = sample.slacks[g.blocks[c.slack_block].index];
+    slack = 0;
+    EvaluateResidualAt(*c.residual, g.blocks, c.blocks, sample, nullptr, &g_value, nullptr);
+    slack = std::sqrt(std::max(g_value, 0.0));
+  }
+  return sample;
+}
+
 Values Configuration(const ConstraintGraph& g, const SimulateOptions& options, std::mt19937& rng,
                      double extent) {
   std::vector<Factor> constraints;
   for (const Constraint& c : g.constraints)
     constraints.push_back({c.residual, c.blocks, {}, c.name});
+  if (options.sample_joints) {
+    const Values sample = JointSample(g, rng, extent);
+    if (constraints.empty() ||
+        MaxConstraintResidual(constraints, g.blocks, sample) <= 1e-10 * extent) {
+      return sample;
+    }
+    // Constraints beyond the joints (a closed loop): the nearest configuration meeting them.
+    GaussianState state = MakePrior(g.blocks, sample, PriorScale{0.01 * extent, 0.03, 1e-3});
+    const BatchSummary summary = SolveBatch(constraints, &state, {}, &g.nominal);
+    if (summary.converged && summary.max_constraint_residual <= 1e-10 * extent) return state.mean;
+    throw InputError(SourceLocation(g.source),
+                     "cannot simulate: the sampled joint values do not meet the model's other "
+                     "constraints");
+  }
   for (double scale = options.perturbation; scale > 1e-4; scale *= 0.5) {
     std::normal_distribution<double> n(0, 1);
     Values sample = g.nominal;

@@ -4,9 +4,11 @@
 // The configuration: the nominal geometry perturbed at random (positions by a fraction of the
 // model's extent, rotations by a few tenths of a radian), then projected onto the constraint
 // surface by the batch solver (the closest point in the perturbation's metric; inequalities and
-// ranges hold through their slacks). The pose: a rotation uniform over SO(3); without a camera
-// a translation of the order of the model's size, with one a position in front of the camera
-// where every model point projects inside the image.
+// ranges hold through their slacks). With `sample_joints`, the joint variables are drawn
+// inside their limits and forward kinematics places the components (constraints other than the
+// joints' are then met by the same projection, from there). The pose: a rotation uniform over
+// SO(3); without a camera a translation of the order of the model's size, with one a position in
+// front of the camera where every model point projects inside the image.
 #pragma once
 
 #include <optional>
@@ -28,6 +30,10 @@ struct SimulateOptions {
   double occlusion = 0;          // fraction of the model points not measured
   bool labels = false;           // keep labels (and the model's order) on the real points
   double perturbation = 0.1;     // of the configuration, relative to the extent
+  // Articulated models: each joint variable uniform over the middle 80 % of its limits (a
+  // turn for a continuous joint, ±10 % of the extent for a prismatic joint without limits),
+  // placed by forward kinematics, instead of the perturbed nominal geometry.
+  bool sample_joints = false;
 };
 
 struct Simulation {

@@ -84,7 +84,8 @@ struct Workspace {
   std::vector<int> support_blocks;  // blocks correlated with the factor's, by tangent offset
   std::vector<int> support;         // their tangent coordinates
   std::vector<int> position;        // where each of `index` sits in `support`
-  std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, next, r, H, S, S_init, innovation;
+  std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init,
+      innovation;
   std::vector<double> U, lambda, W, HP, A, z, Su;
   std::vector<int> keep;
   std::vector<Run> runs;  // of the support
@@ -180,7 +181,7 @@ void ForwardSubstitute(const Eigen::MatrixXd& llt, Eigen::Map<Eigen::MatrixXd>* 
 }  // namespace
 
 FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptions& options,
-                   const Values* linearize_at) {
+                   const Values* linearize_at, Eigen::VectorXd* offset) {
   const ResidualFunction& f = *factor.residual;
   const int m = f.dimension(), n = state->dim();
   FusionSummary summary;
@@ -247,8 +248,18 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   // δ over the support; the iterations start at `linearize_at` if given.
   Eigen::Map<Eigen::VectorXd> delta = ScratchVector(&ws.delta, s);
   Eigen::Map<Eigen::VectorXd> delta_a = ScratchVector(&ws.delta_a, a);
-  delta.setZero();
-  delta_a.setZero();
+  // The prior mean of this update in the chart: 0, or the offset carried by the sequence.
+  Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws.mu, s);
+  Eigen::Map<Eigen::VectorXd> mu_a = ScratchVector(&ws.mu_a, a);
+  if (offset) {
+    CFUSE_CHECK(offset->size() == n);
+    for (int j = 0; j < s; ++j) mu(j) = (*offset)(S[j]);
+  } else {
+    mu.setZero();
+  }
+  for (int j = 0; j < a; ++j) mu_a(j) = mu(ws.position[j]);
+  delta = mu;
+  delta_a = mu_a;
   if (linearize_at) {
     int column = 0;
     for (int b : factor.blocks) {
@@ -284,7 +295,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws.HP, m, a);
     SmallProduct(H, P_aa, &HP);
     SmallProductTransposed(HP, H, &S_mat);
-    for (int i = 0; i < m; ++i) innovation(i) = H.row(i).dot(delta_a) - r(i);
+    for (int i = 0; i < m; ++i) innovation(i) = H.row(i).dot(delta_a - mu_a) - r(i);
 
     Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
     Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
@@ -357,10 +368,11 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
     if (k == 1) {
       W.col(0).noalias() = P_sa * A.col(0);
-      next = W.col(0) * z(0);
+      next = mu + W.col(0) * z(0);
     } else {
       W.noalias() = P_sa * A.leftCols(k);
-      next.noalias() = W * z.head(k);
+      next = mu;
+      next.noalias() += W * z.head(k);
     }
     const double step = (next - delta).lpNorm<Eigen::Infinity>();
     delta = next;
@@ -384,18 +396,24 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   // support only.
   SubtractOuterProduct(ws.runs, Scratch(&ws.W, s, k), &state->covariance);
 
-  // Move the mean and the covariance to the chart at x0 ⊞ δ*.
-  int offset = 0;
-  for (int b : ws.support_blocks) {
-    const Block& block = blocks[b];
-    RetractBlock(block, delta.data() + offset, &state->mean);
-    if (block.kind == BlockKind::kPose) {
-      const Eigen::Vector3d w = delta.segment<3>(offset);
-      if (!w.isZero()) {
-        ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w), &state->covariance);
+  if (offset) {
+    // The sequence carries the estimate in the chart; RetractOffset() moves it at the end.
+    for (int j = 0; j < s; ++j) (*offset)(S[j]) = delta(j);
+  } else {
+    // Move the mean and the covariance to the chart at x0 ⊞ δ*.
+    int at = 0;
+    for (int b : ws.support_blocks) {
+      const Block& block = blocks[b];
+      RetractBlock(block, delta.data() + at, &state->mean);
+      if (block.kind == BlockKind::kPose) {
+        const Eigen::Vector3d w = delta.segment<3>(at);
+        if (!w.isZero()) {
+          ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w),
+                             &state->covariance);
+        }
       }
+      at += TangentDim(block.kind);
     }
-    offset += TangentDim(block.kind);
   }
   if (state->groups.num_blocks() == static_cast<int>(blocks.size())) {
     state->groups.Merge(factor.blocks);
@@ -404,6 +422,23 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     summary.status = FusionSummary::Status::kPartlyRedundant;
   }
   return summary;
+}
+
+void RetractOffset(GaussianState* state, Eigen::VectorXd* offset) {
+  const int n = state->dim();
+  CFUSE_CHECK(offset->size() == n);
+  const std::vector<Run> all = {{0, 0, n}};
+  for (const Block& block : state->blocks) {
+    const double* d = offset->data() + block.tangent_offset;
+    RetractBlock(block, d, &state->mean);
+    if (block.kind == BlockKind::kPose) {
+      const Eigen::Vector3d w(d[0], d[1], d[2]);
+      if (!w.isZero()) {
+        ResetRotationBlock(all, block.tangent_offset, RightJacobianSO3(w), &state->covariance);
+      }
+    }
+  }
+  offset->setZero();
 }
 
 Prediction Predict(const Factor& factor, const GaussianState& state) {
@@ -437,31 +472,137 @@ double MaxConstraintResidual(const std::vector<Factor>& factors, const std::vect
   return worst;
 }
 
+namespace {
+
+// An inequality g(x) - λ² = 0 whose slack has reached 0 (the constraint active) has a double
+// root in λ there: Gauss-Newton halves λ each pass instead of converging quadratically, and a
+// gripper at its limit still missed the tolerance after 8 passes. After each pass every slack
+// is set from its constraint, λ = ±√max(g(x), 0): an inactive one stays exactly satisfied, and
+// an active one (λ = 0) makes its row g(x) = 0 in the next linearisation, an equality that
+// holds the boundary (FuseSequence's active-set test releases it when the data pull inside).
+// x is not moved.
+// The slack block of an inequality g(x) - λ² = 0 (a one-row constraint with one slack), or -1.
+int SlackBlock(const Factor& f, const std::vector<Block>& blocks) {
+  if (!f.is_constraint() || f.residual->dimension() != 1) return -1;
+  int slack = -1;
+  for (int b : f.blocks) {
+    if (blocks[b].kind == BlockKind::kSlack) {
+      if (slack >= 0) return -1;
+      slack = b;
+    }
+  }
+  return slack;
+}
+
+// Active-set tests per sequence (each one Gauss-Newton pass).
+constexpr int kMaxReleases = 3;
+
+// Whether `state` moved from `previous` by at most a hundredth of a standard deviation in
+// every coordinate but the slacks (1e-10 absolute for one the constraints pin).
+bool StepSettled(const Values& previous, const GaussianState& state) {
+  const Eigen::VectorXd step = LocalCoordinates(state.blocks, previous, state.mean);
+  for (const Block& b : state.blocks) {
+    if (b.kind == BlockKind::kSlack) continue;
+    for (int i = b.tangent_offset; i < b.tangent_offset + TangentDim(b.kind); ++i) {
+      const double sigma = std::sqrt(std::max(state.covariance(i, i), 0.0));
+      if (std::abs(step[i]) > 1e-2 * sigma + 1e-10) return false;
+    }
+  }
+  return true;
+}
+
+void ProjectSlacks(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
+                   Values* values) {
+  double g = 0;
+  for (const Factor& f : factors) {
+    const int slack = SlackBlock(f, blocks);
+    if (slack < 0) continue;
+    double& lambda = values->slacks[blocks[slack].index];
+    const double sign = lambda < 0 ? -1 : 1;
+    const double old = lambda;
+    lambda = 0;
+    EvaluateResidualAt(*f.residual, blocks, f.blocks, *values, nullptr, &g, nullptr);
+    lambda = std::isfinite(g) ? sign * std::sqrt(std::max(g, 0.0)) : old;
+  }
+}
+
+}  // namespace
+
 SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* state,
                              const SequenceOptions& options) {
   const GaussianState prior = *state;
   SequenceSummary summary;
   Values previous = prior.mean;
-  for (int pass = 0; pass < options.max_passes; ++pass) {
-    if (pass > 0) {
-      previous = state->mean;
-      *state = prior;
-    }
-    // Later passes linearise every factor once, about the previous estimate: the sequence of
-    // linear updates is then one Gauss-Newton step of the whole problem.
-    const bool gauss_newton = pass > 0 || options.gauss_newton_from_start;
+  // One Gauss-Newton pass from the prior, linearised about `at`, in the prior's chart until its
+  // end (Fuse's `offset`); `skip` leaves factors out.
+  auto gauss_newton_pass = [&](const Values& at, GaussianState* out, const std::vector<bool>* skip,
+                               std::vector<FusionSummary>* fusions) {
+    *out = prior;
     FusionOptions fusion = options.fusion;
-    if (gauss_newton) fusion.max_iterations = 1;
+    fusion.max_iterations = 1;
+    Eigen::VectorXd offset = Eigen::VectorXd::Zero(out->dim());
+    for (size_t i = 0; i < factors.size(); ++i) {
+      if (skip && (*skip)[i]) continue;
+      FusionSummary s = Fuse(factors[i], out, fusion, &at, &offset);
+      if (fusions) fusions->push_back(s);
+    }
+    RetractOffset(out, &offset);
+  };
+  int passes_allowed = options.max_passes, releases = 0;
+  for (int pass = 0; pass < passes_allowed; ++pass) {
     summary.fusions.clear();
-    for (const Factor& f : factors) {
-      summary.fusions.push_back(Fuse(f, state, fusion, gauss_newton ? &previous : nullptr));
+    if (pass == 0 && !options.gauss_newton_from_start) {
+      // The first pass fuses each factor with local iterations about the estimate so far.
+      for (const Factor& f : factors) summary.fusions.push_back(Fuse(f, state, options.fusion));
+    } else {
+      // Later passes linearise every factor once, about the previous estimate: the sequence
+      // of linear updates is then one Gauss-Newton step of the whole problem.
+      previous = state->mean;
+      gauss_newton_pass(previous, state, nullptr, &summary.fusions);
     }
     summary.passes = pass + 1;
+    ProjectSlacks(factors, state->blocks, &state->mean);
     summary.max_constraint_residual = MaxConstraintResidual(factors, state->blocks, state->mean);
-    if (summary.max_constraint_residual <= options.constraint_tolerance) {
-      summary.converged = true;
-      break;
+    if (summary.max_constraint_residual > options.constraint_tolerance) continue;
+    // A Gauss-Newton pass has converged when its step is negligible next to the estimate's
+    // uncertainty, too: the constraints alone can hold while the estimate still moves (a slack
+    // leaving its boundary absorbs every step of the joint it limits).
+    if (pass > 0 && !StepSettled(previous, *state)) continue;
+    // Converged. An inequality held at its boundary (λ = 0) is an equality in the
+    // linearisation and cannot leave the boundary by itself: the active-set test. One pass
+    // without the active inequalities; those the data then put inside (g > 0) are released
+    // and the passes go on from there.
+    std::vector<bool> active(factors.size(), false);
+    bool any_active = false;
+    for (size_t i = 0; i < factors.size(); ++i) {
+      const int slack = SlackBlock(factors[i], state->blocks);
+      if (slack >= 0 && state->mean.slacks[state->blocks[slack].index] == 0) {
+        active[i] = any_active = true;
+      }
     }
+    if (any_active && releases < kMaxReleases) {
+      GaussianState free;
+      gauss_newton_pass(state->mean, &free, &active, nullptr);
+      bool released = false;
+      double g = 0;
+      for (size_t i = 0; i < factors.size(); ++i) {
+        if (!active[i]) continue;
+        Values at = free.mean;
+        at.slacks[state->blocks[SlackBlock(factors[i], state->blocks)].index] = 0;
+        EvaluateResidualAt(*factors[i].residual, state->blocks, factors[i].blocks, at, nullptr, &g,
+                           nullptr);
+        released = released || g > options.constraint_tolerance;
+      }
+      if (released) {
+        ++releases;
+        *state = std::move(free);
+        ProjectSlacks(factors, state->blocks, &state->mean);
+        passes_allowed = std::max(passes_allowed, pass + 1 + options.max_passes / 2);
+        continue;
+      }
+    }
+    summary.converged = true;
+    break;
   }
   return summary;
 }

@@ -5,6 +5,7 @@
 
 #include <fmt/format.h>
 
+#include "constraints/graph.h"
 #include "constraints/kinds/joint_frames.h"
 #include "constraints/kinds/kind_support.h"
 
@@ -33,18 +34,29 @@ class JointResidual : public AutoDiffResidual<JointResidual<Kind>> {
   std::string type_name_;
 };
 
-// The joint variable q (one row): angle about the axis (rad) or displacement along it (m).
+// The joint variable q (one row): angle about the axis (rad) or displacement along it (m). An
+// angle is reported on the branch (centre - π, centre + π]: 0 by default, the middle of the
+// limits for a limited joint, so that a range past π (Panda's joint 6, [-0.02, 3.75]) reads
+// 3.28 where the principal branch would say -3.0.
 class JointValueFunction : public AutoDiffResidual<JointValueFunction> {
  public:
-  JointValueFunction(JointGeometry geometry, bool prismatic)
+  JointValueFunction(JointGeometry geometry, bool prismatic, double centre = 0)
       : AutoDiffResidual(1, {BlockKind::kPose, BlockKind::kPose}),
         geometry_(std::move(geometry)),
-        prismatic_(prismatic) {}
+        prismatic_(prismatic),
+        centre_(centre) {}
+
+  // The branch centre for joint `j`: the middle of its limits, or 0.
+  static double BranchCentre(const Joint& j) {
+    return j.limits && j.type != JointType::kPrismatic ? 0.5 * (j.limits->first + j.limits->second)
+                                                       : 0.0;
+  }
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
     const JointFrames<T> f = ComputeJointFrames(x[0], x[1], geometry_);
-    r[0] = prismatic_ ? PrismaticDisplacement(f, geometry_, 0.0) : RevoluteAngle(f, geometry_, 0.0);
+    r[0] = prismatic_ ? PrismaticDisplacement(f, geometry_, 0.0)
+                      : T(centre_) + RevoluteAngle(f, geometry_, centre_);
   }
 
   std::string Describe(std::span<const std::string> names) const override {
@@ -54,6 +66,7 @@ class JointValueFunction : public AutoDiffResidual<JointValueFunction> {
  private:
   JointGeometry geometry_;
   bool prismatic_;
+  double centre_;
 };
 
 // q in [lower, upper] in the product form of kind_support.h, on the slots (parent, child,

@@ -8,6 +8,8 @@
 
 #include "constraints/dof.h"
 #include "constraints/forward_kinematics.h"
+#include "dsl/model_loader.h"
+#include "dsl/model_writer.h"
 #include "importers/urdf.h"
 #include "test_util.h"
 
@@ -96,6 +98,40 @@ TEST_CASE("urdf: check's DOF is what the joints imply, for every real robot", "[
     REQUIRE(dof.computed);
     CHECK(dof.dof == 6 + movable - mimic - locked);
     CHECK(dof.rigid_body == 6);
+  }
+}
+
+// `cfuse import` on every real robot: the DSL model it writes has the same DOF and puts every
+// link where DART does.
+TEST_CASE("urdf: every real robot imported as a DSL model keeps its DOF and kinematics",
+          "[importers]") {
+  const std::string dir = RobotsDir();
+  if (dir.empty()) return;
+  for (const std::string& robot : Robots(dir)) {
+    const ConstraintGraph g = importers::ImportUrdf(dir + "/" + robot + ".urdf");
+    const ConstraintGraph back = dsl::LoadModelFromString(dsl::WriteModel(g), robot + ".yaml", ".");
+    CHECK(AnalyzeDof(back, back.nominal).dof == AnalyzeDof(g, g.nominal).dof);
+    const nlohmann::json reference = ReadJson(dir + "/" + robot + ".fk.json");
+    for (const nlohmann::json& config : reference["configurations"]) {
+      // The DSL has no merged joints: the independent joints only.
+      std::vector<JointValue> given;
+      for (const auto& [name, value] : config["joint_values"].items()) {
+        const int j = back.FindJoint(name);
+        if (j >= 0 && !back.joints[j].mimic) given.push_back({name, value.get<double>(), {}});
+      }
+      const Values values = ForwardKinematics(back, CompleteJointValues(back, given));
+      std::map<std::string, Rigid3d> poses;
+      for (const auto& [name, pose] : FramePoses(back, values)) poses[name] = pose;
+      for (const auto& [link, expected] : config["link_poses"].items()) {
+        INFO(robot << " " << config["name"].get<std::string>() << " link " << link);
+        REQUIRE(poses.count(link));
+        const auto& xyz = expected["xyz"];
+        const auto& wxyz = expected["wxyz"];
+        CHECK((poses[link].translation - Eigen::Vector3d(xyz[0], xyz[1], xyz[2])).norm() < 1e-9);
+        CHECK(poses[link].rotation.angularDistance(
+                  Eigen::Quaterniond(wxyz[0], wxyz[1], wxyz[2], wxyz[3])) < 1e-9);
+      }
+    }
   }
 }
 
