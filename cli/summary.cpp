@@ -46,6 +46,16 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
       }
     }
   }
+  if (!graph.merged_joints.empty()) {
+    std::string merged;
+    for (const MergedJoint& m : graph.merged_joints) {
+      merged += fmt::format("{}{} ({})", merged.empty() ? "" : ", ", m.name,
+                            m.locked_at ? fmt::format("locked at {:.6g}", *m.locked_at) : "fixed");
+    }
+    s.notes.push_back(fmt::format("joints merged into their parents' components, so they "
+                                  "add no state: {}",
+                                  merged));
+  }
   for (const Joint& j : graph.joints) {
     if (j.limits && j.limit_constraint < 0) {
       s.notes.push_back(

@@ -1,5 +1,6 @@
 // The subcommands through their Run*() functions: outputs, exit statuses, no partial files.
 #include <catch2/catch.hpp>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -90,6 +91,75 @@ TEST_CASE("cli: bad input exits with status 2 and one located message", "[cli]")
   std::ostringstream out2, err2;
   CHECK(RunCheck({testing::SourcePath("README.md"), false}, out2, err2) == 2);
   CHECK(err2.str().find("unsupported model format '.md'") != std::string::npos);
+}
+
+// `cfuse import`: the model file it writes checks to the same DOF as the URDF; nothing is
+// written for a malformed robot.
+TEST_CASE("cli: import writes a robot as a model file with the same DOF", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const std::string urdf = testing::SourcePath("tests/data/urdf/arm.urdf");
+  const fs::path model = dir / "arm.yaml";
+  fs::remove(model);
+  std::ostringstream out, err;
+  REQUIRE(RunImport({urdf, model.string()}, out, err) == 0);
+  CHECK(err.str().empty());
+  std::ostringstream a, b, e1, e2;
+  REQUIRE(RunCheck({urdf, true}, a, e1) == 0);
+  REQUIRE(RunCheck({model.string(), true}, b, e2) == 0);
+  CHECK(nlohmann::json::parse(a.str())["dof"]["total"] == 10);
+  CHECK(nlohmann::json::parse(b.str())["dof"]["total"] == 10);
+
+  const fs::path bad_urdf = dir / "bad.urdf", bad_model = dir / "bad.yaml";
+  std::ofstream(bad_urdf) << "<robot name=\"r\">\n  <link name=\"a\"/>\n  <link name=\"b\"/>\n"
+                             "  <joint name=\"j\" type=\"revolute\"><parent link=\"a\"/>"
+                             "<child link=\"c\"/></joint>\n</robot>\n";
+  fs::remove(bad_model);
+  std::ostringstream out2, err2;
+  CHECK(RunImport({bad_urdf.string(), bad_model.string()}, out2, err2) == 2);
+  CHECK(err2.str() == bad_urdf.string() +
+                          ":4:53: joint 'j': error: unknown child link 'c'\n");
+  CHECK_FALSE(fs::exists(bad_model));
+}
+
+// `cfuse fk`: every component's and frame's pose and every joint's value; bad joint values are
+// refused at their entry, with nothing written.
+TEST_CASE("cli: fk writes every link's pose for the joint values", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const std::string urdf = testing::SourcePath("tests/data/urdf/arm.urdf");
+  const fs::path joints = dir / "q.json", poses = dir / "poses.json";
+  std::ofstream(joints) << "{\"shoulder\": 0.5, \"slide\": {\"value\": 0.02}, \"grip_a\": 0.01}\n";
+  std::ostringstream out, err;
+  REQUIRE(RunFk({urdf, joints.string(), poses.string()}, out, err) == 0);
+  std::ifstream in(poses);
+  const nlohmann::json j = nlohmann::json::parse(in);
+  for (const char* link : {"base", "base_plate", "upper", "fore", "slider", "finger_a",
+                           "finger_b", "tool"}) {
+    INFO(link);
+    CHECK(j["components"].contains(link));
+  }
+  CHECK(j["joints"]["shoulder"]["value"] == 0.5);
+  CHECK(j["joints"]["grip_b"]["value"] == 0.01);  // the mimic
+  CHECK(j["joints"]["elbow"]["value"] == 0);
+  // upper turns by the plate's 0.3 rad and the shoulder's 0.5 about z.
+  const auto& q = j["components"]["upper"]["quaternion"];
+  CHECK(std::abs(q[0].get<double>() - std::cos(0.4)) < 1e-12);
+  CHECK(std::abs(q[3].get<double>() - std::sin(0.4)) < 1e-12);
+
+  std::ofstream(joints) << "{\"shoulder\": 0.5,\n \"wrist\": 1}\n";
+  fs::remove(poses);
+  std::ostringstream out2, err2;
+  CHECK(RunFk({urdf, joints.string(), poses.string()}, out2, err2) == 2);
+  CHECK(err2.str() == joints.string() +
+                          ":2:2: joint 'wrist': error: 'wrist' is not a joint of model "
+                          "'test_arm'\n");
+  CHECK_FALSE(fs::exists(poses));
+  std::ofstream(joints) << "{\"shoulder\": \"half\"}\n";
+  std::ostringstream out3, err3;
+  CHECK(RunFk({urdf, joints.string(), ""}, out3, err3) == 2);
+  CHECK(err3.str().find("q.json:1:14: error: joint 'shoulder' must be a number") != std::string::npos);
+  CHECK(out3.str().empty());
 }
 
 TEST_CASE("cli: graph writes dot, atomically", "[cli]") {
