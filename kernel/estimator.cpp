@@ -549,6 +549,8 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
     RetractOffset(out, &offset);
   };
   int passes_allowed = options.max_passes, releases = 0;
+  const bool all_linear = std::all_of(factors.begin(), factors.end(),
+                                      [](const Factor& f) { return f.residual->is_linear(); });
   for (int pass = 0; pass < passes_allowed; ++pass) {
     summary.fusions.clear();
     if (pass == 0 && !options.gauss_newton_from_start) {
@@ -564,21 +566,26 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
     ProjectSlacks(factors, state->blocks, &state->mean);
     summary.max_constraint_residual = MaxConstraintResidual(factors, state->blocks, state->mean);
     if (summary.max_constraint_residual > options.constraint_tolerance) continue;
-    // A Gauss-Newton pass has converged when its step is negligible next to the estimate's
+    // Converged takes a Gauss-Newton pass whose step is negligible next to the estimate's
     // uncertainty, too: the constraints alone can hold while the estimate still moves (a slack
-    // leaving its boundary absorbs every step of the joint it limits).
-    if (pass > 0 && !StepSettled(previous, *state)) continue;
+    // leaving its boundary absorbs every step of the joint it limits), and the first pass's
+    // result depends on the order of its updates when the start is far off.
+    // (One pass is exact when every factor is affine.)
+    const bool gauss_newton = pass > 0 || options.gauss_newton_from_start;
+    if (!all_linear && (!gauss_newton || !StepSettled(previous, *state))) continue;
     // Converged. An inequality held at its boundary (λ = 0) is an equality in the
     // linearisation and cannot leave the boundary by itself: the active-set test. One pass
     // without the active inequalities; those the data then put inside (g > 0) are released
     // and the passes go on from there.
     std::vector<bool> active(factors.size(), false);
     bool any_active = false;
+    // At the boundary: g(x) = λ² within a hundred times the tolerance (a slack of 1e-6 is as
+    // stuck as one of 0: its row barely moves it).
     for (size_t i = 0; i < factors.size(); ++i) {
       const int slack = SlackBlock(factors[i], state->blocks);
-      if (slack >= 0 && state->mean.slacks[state->blocks[slack].index] == 0) {
-        active[i] = any_active = true;
-      }
+      if (slack < 0) continue;
+      const double lambda = state->mean.slacks[state->blocks[slack].index];
+      if (lambda * lambda <= 100 * options.constraint_tolerance) active[i] = any_active = true;
     }
     if (any_active && releases < kMaxReleases) {
       GaussianState free;
