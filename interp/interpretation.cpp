@@ -360,11 +360,12 @@ class Interpreter {
       // points close together (the two faces of a thin plate) of which one is occluded. Matched
       // to the wrong one, the estimate bends to fit it, and re-association alone stays there.
       if (MoveToUnmatched(try_labelling, solution.state, *assignment)) continue;
-      // Two matched points close together, each inside the other's gate (a thin plate's two
-      // faces seen nearly edge-on): a labelling swapped there bends its estimate to fit, and
-      // re-association under that estimate keeps it. Each such pair swapped, under its own
-      // estimate.
-      if (!SwapClosePairs(try_labelling, solution.state, *assignment)) break;
+      // Image data: two matched points close together, each inside the other's gate (a thin
+      // plate's two faces seen nearly edge-on): a labelling swapped there bends its estimate to
+      // fit, and re-association under that estimate keeps it. Each such pair swapped, under
+      // its own estimate. (In 3D such pairs are rare and the predictions cost 1.5 % of the
+      // lamp's time.)
+      if (!image_ || !SwapClosePairs(try_labelling, solution.state, *assignment)) break;
     }
     return solution;
   }

@@ -44,7 +44,7 @@ struct SolveOptions {
   SequenceOptions sequence;
   double prior_extent_factor = 10.0;  // prior position sigma = factor x model extent
   double prior_rotation_sigma = 1.0;  // rad
-  double prior_slack_sigma = 10.0;
+  double prior_slack_sigma = 1e4;     // wide: near a limit the slack must move far (estimator.h)
   PoseFromProjections pose_from_projections;
   // Starting poses and points by name (e.g. a previous result): they replace the closed-form
   // starts for what they name. An unknown name is an InputError at its entry.
