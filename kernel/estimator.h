@@ -118,9 +118,16 @@ void RetractOffset(GaussianState* state, Eigen::VectorXd* offset);
 // linearisation allowed, leaving that constraint violated to second order; so while some
 // constraint's residual exceeds `constraint_tolerance`, the whole sequence is fused again
 // from the prior with every factor linearised once about the previous pass's estimate. A
-// sequence of Kalman updates all linearised about one point solves that linearised problem
-// exactly, so each such pass is a Gauss-Newton step on all the factors at once, and the
-// passes converge to the batch solution (batch_solver.h).
+// sequence of Kalman updates all linearised about one point, in one chart (Fuse's `offset`),
+// solves that linearised problem exactly, so each such pass is a Gauss-Newton step on all the
+// factors at once, and the passes converge to the batch solution (batch_solver.h).
+//
+// Converged means: every constraint within `constraint_tolerance`, after a Gauss-Newton pass
+// whose step is within a tenth of each coordinate's standard deviation (the first pass counts
+// only when every factor is affine). Inequalities g - λ² = 0: after each pass every slack is
+// set from its constraint, λ = ±√max(g, 0); one on its boundary (an equality in the
+// linearisation) is released by an active-set test — a pass without the boundary inequalities
+// — when the data pull inside (at most 3 tests per sequence).
 struct SequenceOptions {
   FusionOptions fusion;
   int max_passes = 8;
