@@ -3,8 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "constraints/kinds/joint_residual.h"
-#include "kernel/evaluate.h"
+#include "interp/joint_estimates.h"
 
 namespace cfuse::cli {
 namespace {
@@ -49,29 +48,6 @@ std::string LabelOf(const ConstraintGraph& graph, const ResolvedLabel& r) {
 
 }  // namespace
 
-std::vector<JointEstimate> EstimateJoints(const ConstraintGraph& graph,
-                                          const GaussianState& state) {
-  std::vector<JointEstimate> out;
-  for (const Joint& j : graph.joints) {
-    if (!HasJointVariable(j.type)) continue;
-    const JointValueFunction q(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
-                               j.type == JointType::kPrismatic,
-                               JointValueFunction::BranchCentre(j));
-    const std::vector<int> blocks = {graph.components[j.parent].block,
-                                     graph.components[j.child].block};
-    Eigen::VectorXd value;
-    Eigen::MatrixXd J;
-    EvaluateResidual(q, graph.blocks, blocks, state.mean, &value, &J);
-    Eigen::MatrixXd P(12, 12);
-    for (int a = 0; a < 2; ++a)
-      for (int b = 0; b < 2; ++b)
-        P.block<6, 6>(6 * a, 6 * b) = state.covariance.block<6, 6>(
-            graph.blocks[blocks[a]].tangent_offset, graph.blocks[blocks[b]].tangent_offset);
-    out.push_back({j.name, value[0], std::sqrt(std::max(0.0, (J * P * J.transpose())(0, 0)))});
-  }
-  return out;
-}
-
 nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& set,
                             const Solution& solution, double time_ms) {
   const GaussianState& s = solution.state;
@@ -101,8 +77,11 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
     }
   }
   out["joints"] = nlohmann::json::object();
-  for (const JointEstimate& j : EstimateJoints(graph, s)) {
-    out["joints"][j.name] = {{"value", j.value}, {"sigma", j.sigma}};
+  const JointEstimates joints = EstimateJoints(graph, s);
+  for (size_t i = 0; i < joints.joints.size(); ++i) {
+    const int k = static_cast<int>(i);
+    out["joints"][graph.joints[joints.joints[i]].name] = {
+        {"value", joints.values[k]}, {"sigma", std::sqrt(std::max(0.0, joints.covariance(k, k)))}};
   }
   out["matches"] = nlohmann::json::array();
   std::vector<std::string> labels(set.points.size());
@@ -182,14 +161,13 @@ nlohmann::json PosesJson(const ConstraintGraph& graph, const Values& values) {
 
 nlohmann::json TruthJson(const ConstraintGraph& graph, const Values& truth,
                          const std::vector<std::string>& matches) {
-  GaussianState state;
-  state.blocks = graph.blocks;
-  state.mean = truth;
-  state.covariance = Eigen::MatrixXd::Zero(graph.tangent_dim(), graph.tangent_dim());
   nlohmann::json out = PosesJson(graph, truth);
   out["joints"] = nlohmann::json::object();
-  for (const JointEstimate& j : EstimateJoints(graph, state))
-    out["joints"][j.name] = {{"value", j.value}};
+  const Eigen::VectorXd q = JointValues(graph, truth);
+  int k = 0;
+  for (const Joint& j : graph.joints) {
+    if (HasJointVariable(j.type)) out["joints"][j.name] = {{"value", q[k++]}};
+  }
   out["matches"] = nlohmann::json::array();
   for (const std::string& m : matches)
     out["matches"].push_back(m.empty() ? nlohmann::json() : nlohmann::json(m));

@@ -24,11 +24,4 @@ nlohmann::json MeasurementsJson(const MeasurementSet& set);
 nlohmann::json TruthJson(const ConstraintGraph& graph, const Values& truth,
                          const std::vector<std::string>& matches);
 
-// The value and standard deviation of every joint with a variable, from the estimate.
-struct JointEstimate {
-  std::string name;
-  double value = 0, sigma = 0;
-};
-std::vector<JointEstimate> EstimateJoints(const ConstraintGraph& graph, const GaussianState& state);
-
 }  // namespace cfuse::cli

@@ -105,7 +105,8 @@ Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
   return v.poses[g.blocks[g.components[component].block].index];
 }
 
-// The guess's poses and points in place of the starts; unknown names are input errors.
+}  // namespace
+
 void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* values) {
   // A frame on a component (a merged URDF link, as results and `fk` write them) places its
   // component, unless the component's own pose is given too.
@@ -141,7 +142,7 @@ void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* valu
 // Every inequality's slack λ from its residual g - λ² at λ = 0: λ = √max(g, 0), keeping its
 // sign, so that a start that moved the components does not begin with violated slack
 // equations.
-void ResetSlacks(const ConstraintGraph& graph, Values* values) {
+void MatchSlacks(const ConstraintGraph& graph, Values* values) {
   double residual = 0;
   for (const Constraint& c : graph.constraints) {
     if (c.slack_block < 0 || c.residual->dimension() != 1) continue;
@@ -152,8 +153,6 @@ void ResetSlacks(const ConstraintGraph& graph, Values* values) {
     slack = std::isfinite(residual) ? sign * std::sqrt(std::max(residual, 0.0)) : 0;
   }
 }
-
-}  // namespace
 
 Eigen::Vector3d ModelPoint(const ConstraintGraph& graph, const Values& values, int component,
                            int feature) {
@@ -285,16 +284,12 @@ std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const Mea
   return labels;
 }
 
-Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
-               const SolveOptions& options) {
-  Solution solution;
-  solution.labels = ResolveLabels(graph, set);
-  solution.extent = ModelExtent(graph);
-
+Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
+                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options) {
   // 1. A global rigid guess from all labelled points against the nominal geometry.
   Correspondences global;
   std::vector<Correspondences> per_component(graph.components.size());
-  for (const ResolvedLabel& r : solution.labels) {
+  for (const ResolvedLabel& r : labels) {
     const MeasuredPoint& m = set.points[r.measurement];
     const Component& comp = graph.components[r.component];
     global.Add(ModelPoint(graph, graph.nominal, r.component, r.feature), m);
@@ -331,13 +326,23 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     for (const Eigen::Vector3d& p : k.model2) in_world.push_back(current * p);
     ClosedFormPose(k, set, options, MeanDepth(in_world), &current);
   }
+  return initial;
+}
+
+Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
+               const SolveOptions& options) {
+  Solution solution;
+  solution.labels = ResolveLabels(graph, set);
+  solution.extent = ModelExtent(graph);
+
+  Values initial = ClosedFormStart(graph, set, solution.labels, options);
 
   Values unplaced;  // the start before unmeasured points are placed: the fallback below
   if (options.guess) {
     ApplyGuess(graph, *options.guess, &initial);
   } else {
     unplaced = initial;
-    ResetSlacks(graph, &unplaced);
+    MatchSlacks(graph, &unplaced);
     std::vector<bool> measured(graph.components.size(), false);
     for (const ResolvedLabel& r : solution.labels) measured[r.component] = true;
     for (size_t c = 0; c < graph.components.size(); ++c) {
@@ -345,7 +350,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     }
     PlaceUnmeasured(graph, measured, &initial);
   }
-  ResetSlacks(graph, &initial);
+  MatchSlacks(graph, &initial);
 
   // 3. The prior, and 4. the factors.
   PriorScale scale;

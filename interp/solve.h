@@ -75,6 +75,19 @@ double ModelExtent(const ConstraintGraph& graph);
 Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
                const SolveOptions& options = {});
 
+// Steps 1 and 2 above: the nominal geometry moved onto the labelled measurements, then every
+// component with enough labels at its own closed-form pose (options.guess is not applied).
+Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
+                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options);
+
+// The guess's poses and points in place of `values`' (a merged link's frame places its
+// component); an unknown name is an InputError at its entry.
+void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* values);
+
+// Every inequality's slack from its constraint at the other blocks' values, λ = ±√max(g, 0)
+// (keeping λ's sign), so that a start does not begin with violated slack equations.
+void MatchSlacks(const ConstraintGraph& graph, Values* values);
+
 // Moves single point `block` to where constraints `list` hold best, everything else in `x`
 // fixed: Levenberg-Marquardt on the sum of their squared residuals. False when they or their
 // Jacobians are not finite at the start.
