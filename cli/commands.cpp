@@ -10,6 +10,7 @@
 #include <fstream>
 #include <functional>
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "cli/command_support.h"
@@ -22,6 +23,7 @@
 #include "dsl/model_writer.h"
 #include "dsl/pose_reader.h"
 #include "interp/interpretation.h"
+#include "interp/parametric.h"
 #include "interp/schedule.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
@@ -78,13 +80,31 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
     std::optional<PoseSet> guess;
     if (!options.guess.empty()) guess = dsl::ReadPoses(options.guess);
     const auto start = std::chrono::steady_clock::now();
-    SolveOptions solve_options;
-    solve_options.pose_from_projections = &vision::PoseFromProjections;
-    solve_options.guess = guess ? &*guess : nullptr;
-    const Solution solution = Solve(graph, set, solve_options);
+    Solution solution;
+    std::optional<double> residual_variance;
+    if (options.method == "parametric") {
+      ParametricOptions parametric;
+      parametric.pose_from_projections = &vision::PoseFromProjections;
+      parametric.guess = guess ? &*guess : nullptr;
+      ParametricSolution p = SolveParametric(graph, set, parametric);
+      solution = std::move(p.solution);
+      residual_variance = p.residual_variance;
+    } else {
+      SolveOptions solve_options;
+      solve_options.pose_from_projections = &vision::PoseFromProjections;
+      solve_options.guess = guess ? &*guess : nullptr;
+      solve_options.use_constraints_between_components = options.method != "components";
+      solution = Solve(graph, set, solve_options);
+    }
     const double ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    const std::string text = SolutionJson(graph, set, solution, ms).dump(2) + "\n";
+    nlohmann::json result = SolutionJson(graph, set, solution, ms);
+    result["status"]["method"] = options.method;
+    if (residual_variance) {
+      result["status"]["residual_variance"] =
+          std::isfinite(*residual_variance) ? nlohmann::json(*residual_variance) : nlohmann::json();
+    }
+    const std::string text = result.dump(2) + "\n";
     if (options.output.empty()) {
       out << text;
     } else {

@@ -34,6 +34,10 @@ struct SolveCommandOptions {
   std::string measurements;
   std::string guess;   // results-format file of starting poses; empty: closed-form starts
   std::string output;  // empty: stdout
+  // "fusion" (constraint fusion), "parametric" (Lowe's estimator on root poses and joint
+  // variables: interp/parametric.h) or "components" (each component alone, no constraints
+  // between them): the baselines of docs/benchmarks.md.
+  std::string method = "fusion";
 };
 int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err);
 

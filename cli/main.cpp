@@ -34,6 +34,11 @@ int main(int argc, char** argv) {
   solve_cmd->add_option("--guess", solve.guess,
                         "Starting poses (results format, e.g. a previous result)");
   solve_cmd->add_option("-o,--output", solve.output, "Result file (default: stdout)");
+  solve_cmd
+      ->add_option("--method", solve.method,
+                   "fusion (default), parametric (Lowe's, joints in a tree only) or components "
+                   "(no constraints between components)")
+      ->check(CLI::IsMember({"fusion", "parametric", "components"}));
 
   cfuse::cli::InterpretCommandOptions interp;
   CLI::App* interp_cmd = app.add_subcommand(

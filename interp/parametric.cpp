@@ -625,9 +625,9 @@ ParametricSolution SolveParametric(const ConstraintGraph& graph, const Measureme
                                    const ParametricOptions& options) {
   ParametricSolution out;
   Solution& solution = out.solution;
-  solution.labels = ResolveLabels(graph, set);
   solution.extent = ModelExtent(graph);
   const Forest f = Prepare(graph, options, solution.extent);
+  solution.labels = ResolveLabels(graph, set);
   const int n = f.size;
 
   // The start: the components' closed-form poses (or the guess), read as parameters.

@@ -7,6 +7,7 @@
 #include <algorithm>
 
 #include "interp/closed_form_pose.h"
+#include "interp/schedule.h"
 #include "kernel/evaluate.h"
 #include "kernel/fusion_order.h"
 #include "kernel/measurements/image_point.h"
@@ -348,7 +349,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     for (size_t c = 0; c < graph.components.size(); ++c) {
       if (graph.components[c].rigid) measured[c] = true;  // placed by their closed forms
     }
-    PlaceUnmeasured(graph, measured, &initial);
+    if (options.use_constraints_between_components) PlaceUnmeasured(graph, measured, &initial);
   }
   MatchSlacks(graph, &initial);
 
@@ -405,8 +406,10 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
       offset += static_cast<int>(n.rows());
     }
   }
-  for (const Constraint& c : graph.constraints)
-    factors.push_back({c.residual, c.blocks, {}, c.name});
+  for (const Constraint& c : graph.constraints) {
+    if (options.use_constraints_between_components || ConstraintComponents(graph, c).size() <= 1)
+      factors.push_back({c.residual, c.blocks, {}, c.name});
+  }
   std::vector<Factor> ordered;
   ordered.reserve(factors.size());
   for (int i : GroupGrowthOrder(factors, static_cast<int>(graph.blocks.size()))) {

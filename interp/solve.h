@@ -46,6 +46,10 @@ struct SolveOptions {
   double prior_rotation_sigma = 1.0;  // rad
   double prior_slack_sigma = 1e4;     // wide: near a limit the slack must move far (estimator.h)
   PoseFromProjections pose_from_projections;
+  // Off: only the constraints within one component are fused, each component estimated from
+  // its own measurements (the per-component baseline of the benchmarks, and the paper's
+  // divide and conquer).
+  bool use_constraints_between_components = true;
   // Starting poses and points by name (e.g. a previous result): they replace the closed-form
   // starts for what they name. An unknown name is an InputError at its entry.
   const PoseSet* guess = nullptr;
