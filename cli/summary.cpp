@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 
 #include <Eigen/SVD>
+#include <algorithm>
 #include <cmath>
 #include <ostream>
 
@@ -65,6 +66,16 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
     }
   }
   s.dof = AnalyzeDof(graph, graph.nominal);
+  const long locked = std::count_if(graph.merged_joints.begin(), graph.merged_joints.end(),
+                                    [](const MergedJoint& m) { return m.locked_at.has_value(); });
+  if (locked > 0 && s.dof.computed) {
+    // URDF's count, 6 + movable - mimic, takes a revolute or prismatic joint as movable even when
+    // its limits are equal; say what that count would be.
+    s.notes.push_back(fmt::format("{} joint{} locked by equal limits (lower = upper) add{} no DOF; "
+                                  "counted as movable, the DOF would be {}",
+                                  locked, locked == 1 ? "" : "s", locked == 1 ? "s" : "",
+                                  s.dof.dof + locked));
+  }
   return s;
 }
 

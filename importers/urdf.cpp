@@ -399,7 +399,12 @@ class UrdfReader {
       if (spec.type != JointType::kFloating) {
         spec.axis = Eigen::Vector3d(uj->axis.x, uj->axis.y, uj->axis.z);
       }
-      if ((spec.type == JointType::kRevolute || spec.type == JointType::kPrismatic) && uj->limits) {
+      // A mimic joint's own <limit> is not imposed: its variable follows its leader's, whose
+      // limits hold. It is often copied from the leader's and then contradicts the mimic: PR2's
+      // r_gripper_r_parallel_root_joint (multiplier -1, limits [0, 0.548]) would lock its
+      // gripper at 0.
+      if ((spec.type == JointType::kRevolute || spec.type == JointType::kPrismatic) && uj->limits &&
+          !j.mimic_element) {
         spec.limits = std::make_pair(uj->limits->lower, uj->limits->upper);
       }
       builder.AddJoint(spec);

@@ -115,6 +115,9 @@ TEST_CASE("urdf: links become components, fixed and locked links frames on them"
   REQUIRE(grip_b.mimic);
   CHECK(g.joints[grip_b.mimic->leader].name == "grip_a");
   CHECK(g.constraints[grip_b.mimic->constraint].name == "grip_b_mimic");
+  // A mimic's own limits are not imposed (docs/urdf.md): its leader's hold.
+  CHECK_FALSE(grip_b.limits);
+  CHECK(grip_b.limit_constraint < 0);
 
   // 6 + 6 movable joints - 1 mimic - 1 locked.
   const DofReport dof = AnalyzeDof(g, g.nominal);

@@ -1,0 +1,239 @@
+// Joint angles from markers, three estimators on the same data: the benchmark of issue 5
+// (docs/benchmarks.md).
+//
+//   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods fusion,parametric,components]
+//
+// For every MODEL (a URDF or a model file) it writes a model that includes it and fixes three
+// markers on every component (a triangle 6-8 cm across about the component's frame, as a
+// motion-capture rig would), then for every noise level simulates TRIALS configurations (seeds
+// 100, 101, ...: joint variables uniform over the middle 80 % of their limits, a random base
+// pose, the markers measured in 3D with that noise), and solves each with
+//   - fusion: constraint fusion (interp/solve.h), every joint a constraint;
+//   - parametric: Lowe's estimator on root poses and joint variables (interp/parametric.h);
+//   - components: every component from its own markers alone, joints read off the poses.
+// It prints a Markdown row per model, noise level and method: the trials that converged, the
+// RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
+// mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
+// model point (its feature points and markers, mm), and the median time per solve.
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "dsl/model_loader.h"
+#include "importers/urdf.h"
+#include "interp/joint_estimates.h"
+#include "interp/parametric.h"
+#include "interp/simulate.h"
+#include "interp/solve.h"
+#include "kernel/error.h"
+
+namespace {
+
+using namespace cfuse;
+namespace fs = std::filesystem;
+
+std::vector<std::string> Split(const std::string& s) {
+  std::vector<std::string> out;
+  std::stringstream in(s);
+  for (std::string item; std::getline(in, item, ',');) out.push_back(item);
+  return out;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+dsl::LoadOptions WithUrdf() {
+  dsl::LoadOptions options;
+  options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
+    return importers::ImportUrdf(path, where);
+  };
+  return options;
+}
+
+// `model` included by a model that adds three markers to every component.
+ConstraintGraph WithMarkers(const std::string& model, const fs::path& dir) {
+  const ConstraintGraph base = fs::path(model).extension() == ".urdf"
+                                   ? importers::ImportUrdf(model)
+                                   : dsl::LoadModel(model, WithUrdf());
+  fs::create_directories(dir);
+  const fs::path path = dir / (fs::path(model).stem().string() + "-markers.yaml");
+  std::ofstream out(path);
+  out << "name: " << base.name << " with markers\nunits: {length: m, angle: rad}\n"
+      << "include: " << fs::absolute(model).string() << "\nmarkers:\n";
+  for (const Component& c : base.components) {
+    if (!c.rigid) continue;
+    out << "  " << c.name << "_m1: {link: " << c.name << ", xyz: [0.06, 0.01, 0.02]}\n";
+    out << "  " << c.name << "_m2: {link: " << c.name << ", xyz: [-0.02, 0.07, -0.01]}\n";
+    out << "  " << c.name << "_m3: {link: " << c.name << ", xyz: [0.01, -0.03, 0.08]}\n";
+  }
+  out.close();
+  return dsl::LoadModel(path.string(), WithUrdf());
+}
+
+bool IsMarker(const std::string& label) {
+  const size_t n = label.size();
+  return n > 3 && label[n - 3] == '_' && label[n - 2] == 'm';
+}
+
+struct Cell {
+  int trials = 0, converged = 0;
+  double angle_sq = 0, prismatic_sq = 0, point_sq = 0, nees = 0;
+  int angles = 0, prismatics = 0, points = 0, dof = 0;
+  std::vector<double> ms;
+};
+
+// Adds one estimate's errors against the truth.
+void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& estimate,
+           bool converged, double ms, Cell* cell) {
+  ++cell->trials;
+  cell->ms.push_back(ms);
+  if (!converged) return;
+  ++cell->converged;
+  const JointEstimates q = EstimateJoints(g, estimate, true);
+  Eigen::VectorXd e = q.values - JointValues(g, truth, true);
+  for (int i = 0; i < e.size(); ++i) {
+    if (g.joints[q.joints[i]].type == JointType::kPrismatic) {
+      cell->prismatic_sq += e[i] * e[i];
+      ++cell->prismatics;
+    } else {
+      e[i] = std::remainder(e[i], 2 * M_PI);
+      cell->angle_sq += e[i] * e[i];
+      ++cell->angles;
+    }
+  }
+  // Joints held on a limit have no variance: NEES over the others.
+  std::vector<int> free;
+  for (int i = 0; i < e.size(); ++i) {
+    if (q.covariance(i, i) > 1e-18) free.push_back(i);
+  }
+  Eigen::MatrixXd P(free.size(), free.size());
+  Eigen::VectorXd ef(free.size());
+  for (size_t a = 0; a < free.size(); ++a) {
+    ef[a] = e[free[a]];
+    for (size_t b = 0; b < free.size(); ++b) P(a, b) = q.covariance(free[a], free[b]);
+  }
+  cell->nees += ef.dot(P.ldlt().solve(ef));
+  cell->dof += static_cast<int>(free.size());
+  for (size_t c = 0; c < g.components.size(); ++c) {
+    for (size_t f = 0; f < g.components[c].points.size(); ++f) {
+      const int ci = static_cast<int>(c), fi = static_cast<int>(f);
+      cell->point_sq +=
+          (ModelPoint(g, estimate.mean, ci, fi) - ModelPoint(g, truth, ci, fi)).squaredNorm();
+      ++cell->points;
+    }
+  }
+}
+
+int Run(int argc, char** argv) {
+  CLI::App app{"Joint angles from markers: constraint fusion, Lowe's parametric estimator and "
+               "the per-component baseline (issue 5)"};
+  std::vector<std::string> models;
+  std::string noises = "0.001,0.003,0.01", methods = "fusion,parametric,components";
+  int trials = 50;
+  app.add_option("models", models, "URDF or model files")->required();
+  app.add_option("--noise", noises, "3D marker noise sigmas, metres, comma-separated");
+  app.add_option("--trials", trials, "trials per model and noise level")
+      ->check(CLI::Range(1, 100000));
+  app.add_option("--methods", methods, "fusion, parametric, components");
+  CLI11_PARSE(app, argc, argv);
+  for (const std::string& m : Split(methods)) {
+    if (m != "fusion" && m != "parametric" && m != "components") {
+      throw std::invalid_argument("unknown method '" + m + "'");
+    }
+  }
+
+  const fs::path dir = fs::temp_directory_path() / "cfuse_robot_sweep";
+  fmt::print(
+      "| model | joints | noise | method | converged | joint RMS (mrad) | prismatic RMS (mm) | "
+      "NEES / joint | point RMS (mm) | time (median) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const std::string& model : models) {
+    const ConstraintGraph g = WithMarkers(model, dir);
+    const std::string why = ParametricUnsupported(g);
+    int joints = 0;
+    for (const Joint& j : g.joints) joints += HasJointVariable(j.type) && !j.mimic ? 1 : 0;
+    for (const std::string& noise_text : Split(noises)) {
+      const double noise = std::stod(noise_text);
+      std::vector<Simulation> sims;
+      for (int t = 0; t < trials; ++t) {
+        SimulateOptions so;
+        so.seed = 100 + t;
+        so.noise = noise;
+        so.labels = true;
+        so.sample_joints = true;
+        Simulation sim = Simulate(g, so);
+        std::vector<MeasuredPoint> markers;
+        for (const MeasuredPoint& p : sim.measurements.points) {
+          if (IsMarker(p.label)) markers.push_back(p);
+        }
+        sim.measurements.points = std::move(markers);
+        sims.push_back(std::move(sim));
+      }
+      for (const std::string& method : Split(methods)) {
+        if (method == "parametric" && !why.empty()) {
+          fmt::print("| {} | {} | {:g} mm | {} | no parametric form: {} | | | | | |\n", g.name,
+                     joints, 1000 * noise, method, why);
+          continue;
+        }
+        Cell cell;
+        for (const Simulation& sim : sims) {
+          const auto start = std::chrono::steady_clock::now();
+          GaussianState estimate;
+          bool converged = false;
+          if (method == "parametric") {
+            ParametricSolution s = SolveParametric(g, sim.measurements);
+            converged = s.converged;
+            estimate = std::move(s.solution.state);
+          } else {
+            SolveOptions options;
+            options.use_constraints_between_components = method == "fusion";
+            Solution s = Solve(g, sim.measurements, options);
+            converged = s.summary.converged;
+            estimate = std::move(s.state);
+          }
+          const double ms = std::chrono::duration<double, std::milli>(
+                                std::chrono::steady_clock::now() - start)
+                                .count();
+          Score(g, sim.truth, estimate, converged, ms, &cell);
+        }
+        auto rms = [](double sq, int n) {
+          return n ? fmt::format("{:.3f}", std::sqrt(sq / n)) : std::string("—");
+        };
+        fmt::print("| {} | {} | {:g} mm | {} | {}/{} | {} | {} | {:.2f} | {} | {:.3f} ms |\n",
+                   g.name, joints, 1000 * noise, method, cell.converged, cell.trials,
+                   cell.angles ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.angle_sq / cell.angles))
+                               : std::string("—"),
+                   cell.prismatics
+                       ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.prismatic_sq / cell.prismatics))
+                       : std::string("—"),
+                   cell.dof ? cell.nees / cell.dof : NAN,
+                   rms(1e6 * cell.point_sq, cell.points), Median(cell.ms));
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  try {
+    return Run(argc, argv);
+  } catch (const cfuse::InputError& e) {
+    fmt::print(stderr, "robot_sweep: {}\n", e.what());
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "robot_sweep: {}\n", e.what());
+  }
+  return 2;
+}
