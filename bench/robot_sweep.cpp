@@ -14,7 +14,9 @@
 // It prints a Markdown row per model, noise level and method: the trials that converged, the
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
 // mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
-// model point (its feature points and markers, mm), and the median time per solve.
+// model point (its feature points and markers, mm), and the median time per solve. A joint
+// estimate on one of its limits (the inequality active) has no variance and is left out of
+// the NEES. Single-point components (the lamp's) are measured themselves.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -70,6 +72,10 @@ ConstraintGraph WithMarkers(const std::string& model, const fs::path& dir) {
   std::ofstream out(path);
   out << "name: " << base.name << " with markers\nunits: {length: m, angle: rad}\n"
       << "include: " << fs::absolute(model).string() << "\nmarkers:\n";
+  if (std::none_of(base.components.begin(), base.components.end(),
+                   [](const Component& c) { return c.rigid; })) {
+    out << "  {}\n";
+  }
   for (const Component& c : base.components) {
     if (!c.rigid) continue;
     out << "  " << c.name << "_m1: {link: " << c.name << ", xyz: [0.06, 0.01, 0.02]}\n";
@@ -80,16 +86,20 @@ ConstraintGraph WithMarkers(const std::string& model, const fs::path& dir) {
   return dsl::LoadModel(path.string(), WithUrdf());
 }
 
-bool IsMarker(const std::string& label) {
+// What a motion-capture rig sees: the markers, and single-point components (the lamp's points).
+bool Measured(const ConstraintGraph& g, const std::string& label) {
   const size_t n = label.size();
-  return n > 3 && label[n - 3] == '_' && label[n - 2] == 'm';
+  if (n > 3 && label[n - 3] == '_' && label[n - 2] == 'm') return true;
+  const int c = g.FindComponent(label);
+  return c >= 0 && !g.components[c].rigid;
 }
 
 struct Cell {
   int trials = 0, converged = 0;
   double angle_sq = 0, prismatic_sq = 0, point_sq = 0, nees = 0;
-  int angles = 0, prismatics = 0, points = 0, dof = 0;
+  int angles = 0, prismatics = 0, points = 0, dof = 0, on_limit = 0;
   std::vector<double> ms;
+  std::vector<int> failed;  // trials that did not converge
 };
 
 // Adds one estimate's errors against the truth.
@@ -97,7 +107,10 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
            bool converged, double ms, Cell* cell) {
   ++cell->trials;
   cell->ms.push_back(ms);
-  if (!converged) return;
+  if (!converged) {
+    cell->failed.push_back(cell->trials - 1);
+    return;
+  }
   ++cell->converged;
   const JointEstimates q = EstimateJoints(g, estimate, true);
   Eigen::VectorXd e = q.values - JointValues(g, truth, true);
@@ -111,10 +124,19 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
       ++cell->angles;
     }
   }
-  // Joints held on a limit have no variance: NEES over the others.
+  // A joint held on a limit has (next to) no variance: NEES over the others.
   std::vector<int> free;
   for (int i = 0; i < e.size(); ++i) {
-    if (q.covariance(i, i) > 1e-18) free.push_back(i);
+    const Joint& j = g.joints[q.joints[i]];
+    const double v = q.values[i];
+    const bool on_limit = j.limits && j.limit_constraint >= 0 &&
+                          std::min(std::abs(v - j.limits->first),
+                                   std::abs(v - j.limits->second)) < 1e-7;
+    if (on_limit) {
+      ++cell->on_limit;
+    } else {
+      free.push_back(i);
+    }
   }
   Eigen::MatrixXd P(free.size(), free.size());
   Eigen::VectorXd ef(free.size());
@@ -125,6 +147,12 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
   cell->nees += ef.dot(P.ldlt().solve(ef));
   cell->dof += static_cast<int>(free.size());
   for (size_t c = 0; c < g.components.size(); ++c) {
+    if (!g.components[c].rigid) {
+      const int ci = static_cast<int>(c);
+      cell->point_sq +=
+          (ModelPoint(g, estimate.mean, ci, -1) - ModelPoint(g, truth, ci, -1)).squaredNorm();
+      ++cell->points;
+    }
     for (size_t f = 0; f < g.components[c].points.size(); ++f) {
       const int ci = static_cast<int>(c), fi = static_cast<int>(f);
       cell->point_sq +=
@@ -140,11 +168,13 @@ int Run(int argc, char** argv) {
   std::vector<std::string> models;
   std::string noises = "0.001,0.003,0.01", methods = "fusion,parametric,components";
   int trials = 50;
+  bool verbose = false;
   app.add_option("models", models, "URDF or model files")->required();
   app.add_option("--noise", noises, "3D marker noise sigmas, metres, comma-separated");
   app.add_option("--trials", trials, "trials per model and noise level")
       ->check(CLI::Range(1, 100000));
   app.add_option("--methods", methods, "fusion, parametric, components");
+  app.add_flag("--verbose", verbose, "list the trials that did not converge");
   CLI11_PARSE(app, argc, argv);
   for (const std::string& m : Split(methods)) {
     if (m != "fusion" && m != "parametric" && m != "components") {
@@ -174,7 +204,7 @@ int Run(int argc, char** argv) {
         Simulation sim = Simulate(g, so);
         std::vector<MeasuredPoint> markers;
         for (const MeasuredPoint& p : sim.measurements.points) {
-          if (IsMarker(p.label)) markers.push_back(p);
+          if (Measured(g, p.label)) markers.push_back(p);
         }
         sim.measurements.points = std::move(markers);
         sims.push_back(std::move(sim));
@@ -218,6 +248,10 @@ int Run(int argc, char** argv) {
                        : std::string("—"),
                    cell.dof ? cell.nees / cell.dof : NAN,
                    rms(1e6 * cell.point_sq, cell.points), Median(cell.ms));
+        if (verbose) {
+          for (int t : cell.failed) fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + t);
+          if (cell.on_limit) fmt::print("   {} joint estimates on a limit\n", cell.on_limit);
+        }
         std::fflush(stdout);
       }
     }

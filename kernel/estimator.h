@@ -125,9 +125,11 @@ void RetractOffset(GaussianState* state, Eigen::VectorXd* offset);
 // Converged means: every constraint within `constraint_tolerance`, after a Gauss-Newton pass
 // whose step is within a tenth of each coordinate's standard deviation (the first pass counts
 // only when every factor is affine). Inequalities g - λ² = 0: after each pass every slack is
-// set from its constraint, λ = ±√max(g, 0); one on its boundary (an equality in the
-// linearisation) is released by an active-set test — a pass without the boundary inequalities
-// — when the data pull inside (at most 3 tests per sequence).
+// set from its constraint, λ = ±√max(g, 0), and to exactly 0 within 100 tolerances of the
+// boundary; one on its boundary (an equality in the linearisation) is released by an
+// active-set test — a pass without the boundary inequalities — when the data pull inside (at
+// most 3 tests per sequence, each followed by up to max_passes more). Passes beyond max_passes
+// are allowed while each at least halves the constraints' residual (up to 4 x max_passes).
 struct SequenceOptions {
   FusionOptions fusion;
   int max_passes = 8;
