@@ -1,7 +1,8 @@
 // Joint angles from markers, three estimators on the same data: the benchmark of issue 5
 // (docs/benchmarks.md).
 //
-//   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods fusion,parametric,components]
+//   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods
+//   fusion,parametric,components]
 //
 // For every MODEL (a URDF or a model file) it writes a model that includes it and fixes three
 // markers on every component (a triangle 6-8 cm across about the component's frame, as a
@@ -129,9 +130,9 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
   for (int i = 0; i < e.size(); ++i) {
     const Joint& j = g.joints[q.joints[i]];
     const double v = q.values[i];
-    const bool on_limit = j.limits && j.limit_constraint >= 0 &&
-                          std::min(std::abs(v - j.limits->first),
-                                   std::abs(v - j.limits->second)) < 1e-7;
+    const bool on_limit =
+        j.limits && j.limit_constraint >= 0 &&
+        std::min(std::abs(v - j.limits->first), std::abs(v - j.limits->second)) < 1e-7;
     if (on_limit) {
       ++cell->on_limit;
     } else {
@@ -163,8 +164,9 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
 }
 
 int Run(int argc, char** argv) {
-  CLI::App app{"Joint angles from markers: constraint fusion, Lowe's parametric estimator and "
-               "the per-component baseline (issue 5)"};
+  CLI::App app{
+      "Joint angles from markers: constraint fusion, Lowe's parametric estimator and "
+      "the per-component baseline (issue 5)"};
   std::vector<std::string> models;
   std::string noises = "0.001,0.003,0.01", methods = "fusion,parametric,components";
   int trials = 50;
@@ -231,25 +233,27 @@ int Run(int argc, char** argv) {
             converged = s.summary.converged;
             estimate = std::move(s.state);
           }
-          const double ms = std::chrono::duration<double, std::milli>(
-                                std::chrono::steady_clock::now() - start)
-                                .count();
+          const double ms =
+              std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                  .count();
           Score(g, sim.truth, estimate, converged, ms, &cell);
         }
         auto rms = [](double sq, int n) {
           return n ? fmt::format("{:.3f}", std::sqrt(sq / n)) : std::string("—");
         };
-        fmt::print("| {} | {} | {:g} mm | {} | {}/{} | {} | {} | {:.2f} | {} | {:.3f} ms |\n",
-                   g.name, joints, 1000 * noise, method, cell.converged, cell.trials,
-                   cell.angles ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.angle_sq / cell.angles))
-                               : std::string("—"),
-                   cell.prismatics
-                       ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.prismatic_sq / cell.prismatics))
-                       : std::string("—"),
-                   cell.dof ? cell.nees / cell.dof : NAN,
-                   rms(1e6 * cell.point_sq, cell.points), Median(cell.ms));
+        fmt::print(
+            "| {} | {} | {:g} mm | {} | {}/{} | {} | {} | {:.2f} | {} | {:.3f} ms |\n", g.name,
+            joints, 1000 * noise, method, cell.converged, cell.trials,
+            cell.angles ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.angle_sq / cell.angles))
+                        : std::string("—"),
+            cell.prismatics
+                ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.prismatic_sq / cell.prismatics))
+                : std::string("—"),
+            cell.dof ? cell.nees / cell.dof : NAN, rms(1e6 * cell.point_sq, cell.points),
+            Median(cell.ms));
         if (verbose) {
-          for (int t : cell.failed) fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + t);
+          for (int t : cell.failed)
+            fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + t);
           if (cell.on_limit) fmt::print("   {} joint estimates on a limit\n", cell.on_limit);
         }
         std::fflush(stdout);

@@ -53,9 +53,10 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
       merged += fmt::format("{}{} ({})", merged.empty() ? "" : ", ", m.name,
                             m.locked_at ? fmt::format("locked at {:.6g}", *m.locked_at) : "fixed");
     }
-    s.notes.push_back(fmt::format("joints merged into their parents' components, so they "
-                                  "add no state: {}",
-                                  merged));
+    s.notes.push_back(
+        fmt::format("joints merged into their parents' components, so they "
+                    "add no state: {}",
+                    merged));
   }
   for (const Joint& j : graph.joints) {
     if (j.limits && j.limit_constraint < 0) {
@@ -71,10 +72,10 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
   if (locked > 0 && s.dof.computed) {
     // URDF's count, 6 + movable - mimic, takes a revolute or prismatic joint as movable even when
     // its limits are equal; say what that count would be.
-    s.notes.push_back(fmt::format("{} joint{} locked by equal limits (lower = upper) add{} no DOF; "
-                                  "counted as movable, the DOF would be {}",
-                                  locked, locked == 1 ? "" : "s", locked == 1 ? "s" : "",
-                                  s.dof.dof + locked));
+    s.notes.push_back(
+        fmt::format("{} joint{} locked by equal limits (lower = upper) add{} no DOF; "
+                    "counted as movable, the DOF would be {}",
+                    locked, locked == 1 ? "" : "s", locked == 1 ? "s" : "", s.dof.dof + locked));
   }
   return s;
 }

@@ -605,7 +605,8 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
       const int slack = SlackBlock(factors[i], state->blocks);
       if (slack < 0) continue;
       const double lambda = state->mean.slacks[state->blocks[slack].index];
-      if (lambda * lambda <= kBoundary * options.constraint_tolerance) active[i] = any_active = true;
+      if (lambda * lambda <= kBoundary * options.constraint_tolerance)
+        active[i] = any_active = true;
     }
     if (any_active && releases < kMaxReleases) {
       GaussianState free;
@@ -623,7 +624,8 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
       if (released) {
         ++releases;
         *state = std::move(free);
-        ProjectSlacks(factors, state->blocks, kBoundary * options.constraint_tolerance, &state->mean);
+        ProjectSlacks(factors, state->blocks, kBoundary * options.constraint_tolerance,
+                      &state->mean);
         // The released state starts afresh, as far off as a new start can be (an arm whose
         // first pass pinned a joint on its limit, the data far inside): a full allowance.
         passes_allowed = std::max(passes_allowed, pass + 1 + options.max_passes);

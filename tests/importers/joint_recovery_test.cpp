@@ -11,6 +11,7 @@
 #include "constraints/kinds/joint_residual.h"
 #include "dsl/model_loader.h"
 #include "importers/urdf.h"
+#include "interp/joint_estimates.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
 #include "kernel/chi_square.h"
@@ -49,56 +50,18 @@ bool IsMarker(const std::string& label) {
   return label.size() > 3 && label.compare(label.size() - 3, 2, "_m") == 0;
 }
 
-// The independent joints' values (mimic joints follow) and their covariance J P Jᵀ.
-struct JointState {
-  std::vector<std::string> names;
-  std::vector<bool> prismatic;
-  Eigen::VectorXd value;
-  Eigen::MatrixXd covariance;
-};
-
-JointState Joints(const ConstraintGraph& g, const Values& mean, const Eigen::MatrixXd* P) {
-  JointState s;
-  std::vector<Eigen::RowVectorXd> rows;
-  std::vector<double> values;
-  for (const Joint& j : g.joints) {
-    if (!HasJointVariable(j.type) || j.mimic) continue;
-    const JointValueFunction q(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
-                               j.type == JointType::kPrismatic,
-                               JointValueFunction::BranchCentre(j));
-    const std::vector<int> blocks = {g.components[j.parent].block, g.components[j.child].block};
-    Eigen::VectorXd r;
-    Eigen::MatrixXd J;
-    EvaluateResidual(q, g.blocks, blocks, mean, &r, &J);
-    Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(g.tangent_dim());
-    for (int b = 0; b < 2; ++b)
-      row.segment<6>(g.blocks[blocks[b]].tangent_offset) += J.block<1, 6>(0, 6 * b);
-    rows.push_back(row);
-    values.push_back(r[0]);
-    s.names.push_back(j.name);
-    s.prismatic.push_back(j.type == JointType::kPrismatic);
-  }
-  const int n = static_cast<int>(values.size());
-  s.value = Eigen::Map<Eigen::VectorXd>(values.data(), n);
-  if (P) {
-    Eigen::MatrixXd J(n, g.tangent_dim());
-    for (int i = 0; i < n; ++i) J.row(i) = rows[i];
-    s.covariance = J * *P * J.transpose();
-  }
-  return s;
-}
-
 struct Recovery {
   double nees = 0;
   int dof = 0, trials = 0, converged = 0, within_limits = 0;
 };
 
-Recovery Recover(const ConstraintGraph& g, int trials) {
+Recovery Recover(const ConstraintGraph& g, int trials, double noise = 0.002,
+                 unsigned first_seed = 500) {
   Recovery out;
   for (int t = 0; t < trials; ++t) {
     SimulateOptions so;
-    so.seed = 500 + t;
-    so.noise = 0.002;
+    so.seed = first_seed + t;
+    so.noise = noise;
     so.labels = true;
     so.sample_joints = true;  // inside the limits: the NEES of an unconstrained estimate
     const Simulation sim = Simulate(g, so);
@@ -111,20 +74,20 @@ Recovery Recover(const ConstraintGraph& g, int trials) {
     ++out.trials;
     if (!solution.summary.converged) continue;
     ++out.converged;
-    const JointState truth = Joints(g, sim.truth, nullptr);
-    const JointState estimate = Joints(g, solution.state.mean, &solution.state.covariance);
-    Eigen::VectorXd e = estimate.value - truth.value;
+    const JointEstimates estimate = EstimateJoints(g, solution.state, true);
+    Eigen::VectorXd e = estimate.values - JointValues(g, sim.truth, true);
     for (int i = 0; i < e.size(); ++i) {
-      if (!estimate.prismatic[i]) e[i] = std::remainder(e[i], 2 * M_PI);
+      if (g.joints[estimate.joints[i]].type != JointType::kPrismatic)
+        e[i] = std::remainder(e[i], 2 * M_PI);
     }
     out.nees += e.dot(estimate.covariance.ldlt().solve(e));
     out.dof += static_cast<int>(e.size());
     bool inside = true;
-    for (size_t i = 0; i < estimate.names.size(); ++i) {
-      const Joint& j = g.joints[g.FindJoint(estimate.names[i])];
+    for (size_t i = 0; i < estimate.joints.size(); ++i) {
+      const Joint& j = g.joints[estimate.joints[i]];
       if (j.limits && j.limit_constraint >= 0) {
         const double slack = 1e-6;  // the constraints hold to about 1e-8
-        const double v = estimate.value[static_cast<int>(i)];
+        const double v = estimate.values[static_cast<int>(i)];
         inside = inside && v >= j.limits->first - slack && v <= j.limits->second + slack;
       }
     }
@@ -162,6 +125,30 @@ TEST_CASE("urdf: joint angles from markers are consistent with their covariance 
   }
 }
 
+// At 1 cm noise on markers 6-8 cm apart Gauss-Newton converges only linearly, and a joint
+// near a limit can be pinned by a far start and released later: every solve must still
+// converge (seeds 100-299 include an ANYmal and a Z1 trial that once did not).
+TEST_CASE("urdf: joint angles from markers converge at 1 cm noise", "[importers]") {
+  {
+    const ConstraintGraph g = WithMarkers(testing::SourcePath("tests/data/urdf/arm.urdf"));
+    const Recovery r = Recover(g, 200, 0.01, 100);
+    CHECK(r.converged == r.trials);
+    CHECK(r.within_limits == r.converged);
+  }
+  const fs::path dir = fs::path(testing::SourceDir()) / ".." / "shared" / "data" / "urdf";
+  if (!fs::is_directory(dir)) {
+    WARN("skipped: " << dir.string() << " is absent (real robots are not part of the project)");
+    return;
+  }
+  for (const char* robot : {"anymal_c", "z1", "widowx"}) {
+    const ConstraintGraph g = WithMarkers((dir / (std::string(robot) + ".urdf")).string());
+    const Recovery r = Recover(g, 200, 0.01, 100);
+    INFO(robot << ": " << r.converged << " of " << r.trials << " converged");
+    CHECK(r.converged == r.trials);
+    CHECK(r.within_limits == r.converged);
+  }
+}
+
 // The truth at the shoulder's upper limit: estimates never pass it, and about half of them
 // (those whose data alone would) sit on it, the limit active.
 TEST_CASE("urdf: a joint whose truth sits at its limit is estimated on the limit, not beyond",
@@ -195,9 +182,9 @@ TEST_CASE("urdf: a joint whose truth sits at its limit is estimated on the limit
     REQUIRE(set.points.size() == 18);
     const Solution solution = Solve(g, set, SolveOptions{});
     REQUIRE(solution.summary.converged);
-    const JointState estimate = Joints(g, solution.state.mean, nullptr);
-    const double q = estimate.value[0];  // the shoulder comes first
-    REQUIRE(estimate.names[0] == "shoulder");
+    const Eigen::VectorXd estimate = JointValues(g, solution.state.mean, true);
+    const double q = estimate[0];  // the shoulder comes first
+    REQUIRE(g.joints[0].name == "shoulder");
     if (q > upper + 1e-6) ++beyond;  // the constraint tolerance allows ~1e-8
     if (std::abs(q - upper) < 1e-6) ++on_limit;
   }
