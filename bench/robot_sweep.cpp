@@ -16,8 +16,8 @@
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
 // mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
 // model point (its feature points and markers, mm), and the median time per solve. A joint
-// estimate on one of its limits (the inequality active) has no variance and is left out of
-// the NEES. Single-point components (the lamp's) are measured themselves.
+// estimate held by an active inequality (its limit, or a range on points) has no variance and
+// is left out of the NEES. Single-point components (the lamp's) are measured themselves.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -105,7 +105,7 @@ struct Cell {
 
 // Adds one estimate's errors against the truth.
 void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& estimate,
-           bool converged, double ms, Cell* cell) {
+           bool converged, double ms, double noise, Cell* cell) {
   ++cell->trials;
   cell->ms.push_back(ms);
   if (!converged) {
@@ -125,14 +125,14 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
       ++cell->angles;
     }
   }
-  // A joint held on a limit has (next to) no variance: NEES over the others.
+  // A joint held by an active inequality (its own limit, or a range on points: the scissors'
+  // opening) has next to no variance: NEES over the others. Free, a joint's sigma is at least
+  // about the noise over the markers' spread (0.1 m), so a thousandth of that means held.
   std::vector<int> free;
   for (int i = 0; i < e.size(); ++i) {
-    const Joint& j = g.joints[q.joints[i]];
-    const double v = q.values[i];
-    const bool on_limit =
-        j.limits && j.limit_constraint >= 0 &&
-        std::min(std::abs(v - j.limits->first), std::abs(v - j.limits->second)) < 1e-7;
+    const bool prismatic = g.joints[q.joints[i]].type == JointType::kPrismatic;
+    const double floor = 1e-3 * (prismatic ? noise : noise / 0.1);
+    const bool on_limit = q.covariance(i, i) < floor * floor;
     if (on_limit) {
       ++cell->on_limit;
     } else {
@@ -236,7 +236,7 @@ int Run(int argc, char** argv) {
           const double ms =
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                   .count();
-          Score(g, sim.truth, estimate, converged, ms, &cell);
+          Score(g, sim.truth, estimate, converged, ms, noise, &cell);
         }
         auto rms = [](double sq, int n) {
           return n ? fmt::format("{:.3f}", std::sqrt(sq / n)) : std::string("—");
@@ -254,7 +254,8 @@ int Run(int argc, char** argv) {
         if (verbose) {
           for (int t : cell.failed)
             fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + t);
-          if (cell.on_limit) fmt::print("   {} joint estimates on a limit\n", cell.on_limit);
+          if (cell.on_limit)
+            fmt::print("   {} joint estimates held by an active inequality\n", cell.on_limit);
         }
         std::fflush(stdout);
       }

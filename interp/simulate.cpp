@@ -124,12 +124,20 @@ Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options
   for (const ModelPointRef& r : refs) centre += ModelPoint(graph, config, r.component, r.feature);
   centre /= std::max<size_t>(1, refs.size());
 
+  // A model with `fixed:` entries is pinned to the world frame: it is measured where it is.
+  const bool pinned =
+      std::any_of(graph.constraints.begin(), graph.constraints.end(), [](const Constraint& c) {
+        return c.kind == "fixed pose" || c.kind == "fixed position" ||
+               c.kind == "fixed orientation" || c.kind == "fixed point";
+      });
   Simulation sim;
   bool placed = false;
-  for (int attempt = 0; attempt < 200 && !placed; ++attempt) {
+  for (int attempt = 0; attempt < (pinned ? 1 : 200) && !placed; ++attempt) {
     Rigid3d pose(UniformRotation(rng), Eigen::Vector3d::Zero());
     std::normal_distribution<double> n(0, 1);
-    if (options.camera) {
+    if (pinned) {
+      pose = Rigid3d();
+    } else if (options.camera) {
       const Camera& cam = *options.camera;
       // Far enough that the model spans about 40% of the smaller image side.
       const double side = std::min(cam.width, cam.height);
@@ -161,7 +169,10 @@ Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options
   }
   if (!placed) {
     throw InputError(SourceLocation(graph.source),
-                     "cannot simulate: no pose puts every model point inside the image");
+                     pinned ? "cannot simulate: the model is fixed in the world (`fixed:`) where "
+                              "the camera, at the world origin looking along +z, does not see "
+                              "every model point"
+                            : "cannot simulate: no pose puts every model point inside the image");
   }
 
   // Measurements of the visible points, then clutter.

@@ -8,7 +8,8 @@
 // inside their limits and forward kinematics places the components (constraints other than the
 // joints' are then met by the same projection, from there). The pose: a rotation uniform over
 // SO(3); without a camera a translation of the order of the model's size, with one a position in
-// front of the camera where every model point projects inside the image.
+// front of the camera where every model point projects inside the image. A model with `fixed:`
+// entries is pinned to the world (the viewer's frame) and stays where they put it.
 #pragma once
 
 #include <optional>
