@@ -990,10 +990,19 @@ class Interpreter {
   }
 
   // The chi-square quantile at the gate confidence for `dof` degrees of freedom, computed once
-  // per dof: the tests below ask for it at every node.
+  // per dof and confidence in a thread: the tests below ask for it at every node, and a
+  // tracker interprets frame after frame at one confidence.
   double Gate(int dof) const {
     if (static_cast<int>(gates_.size()) <= dof) gates_.resize(dof + 1, -1);
-    if (gates_[dof] < 0) gates_[dof] = ChiSquareQuantile(options_.gate_confidence, dof);
+    if (gates_[dof] < 0) {
+      thread_local std::map<std::pair<double, int>, double> known;
+      const auto key = std::make_pair(options_.gate_confidence, dof);
+      auto it = known.find(key);
+      if (it == known.end()) {
+        it = known.emplace(key, ChiSquareQuantile(options_.gate_confidence, dof)).first;
+      }
+      gates_[dof] = it->second;
+    }
     return gates_[dof];
   }
 
@@ -1163,9 +1172,12 @@ class Interpreter {
       }
     }
     if (rows.size() < 3) return false;
-    Eigen::MatrixXd A(rows.size(), 3);
-    for (size_t i = 0; i < rows.size(); ++i) A.row(static_cast<long>(i)) = rows[i];
-    return Eigen::JacobiSVD<Eigen::MatrixXd>(A).singularValues()(2) > kDetermined;
+    // The smallest singular value of the stacked rows is the root of the smallest eigenvalue
+    // of their 3 x 3 Gram matrix (0.1 is far above where forming it loses precision).
+    Eigen::Matrix3d gram = Eigen::Matrix3d::Zero();
+    for (const Eigen::RowVector3d& row : rows) gram.noalias() += row.transpose() * row;
+    const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(gram, Eigen::EigenvaluesOnly);
+    return eigen.eigenvalues()(0) > kDetermined * kDetermined;
   }
 
   // Whether component c has a match on f's branch (a seed's or a level's).

@@ -48,13 +48,40 @@ double ChiSquareCdf(double x, double dof) {
 
 double ChiSquareQuantile(double p, double dof) {
   CFUSE_CHECK(p > 0 && p < 1 && dof > 0);
+  // Newton's method on the CDF from the Wilson-Hilferty approximation, kept inside a bracket
+  // that every step narrows (bisection where Newton would leave it): 4-6 CDF evaluations
+  // where bisection alone took about 45 (the interpretation asks for a few per search).
   double lo = 0, hi = dof + 10 * std::sqrt(2 * dof) + 50;
   while (ChiSquareCdf(hi, dof) < p) hi *= 2;
-  for (int i = 0; i < 200 && hi - lo > 1e-12 * hi; ++i) {
-    const double mid = 0.5 * (lo + hi);
-    (ChiSquareCdf(mid, dof) < p ? lo : hi) = mid;
+  const double a = 0.5 * dof, log_norm = a * std::log(0.5) - std::lgamma(a);
+  // Wilson-Hilferty: (X/k)^(1/3) is about normal with mean 1 - 2/(9k) and variance 2/(9k).
+  double x = dof;
+  {
+    // The normal quantile by bisection on erfc (cheap next to the incomplete gamma).
+    double zlo = -10, zhi = 10;
+    for (int i = 0; i < 60; ++i) {
+      const double zm = 0.5 * (zlo + zhi);
+      (0.5 * std::erfc(-zm / std::sqrt(2.0)) < p ? zlo : zhi) = zm;
+    }
+    const double zq = 0.5 * (zlo + zhi), v = 2 / (9 * dof);
+    const double c = 1 - v + zq * std::sqrt(v);
+    x = dof * c * c * c;
+    if (!(x > lo && x < hi)) x = 0.5 * (lo + hi);
   }
-  return 0.5 * (lo + hi);
+  for (int i = 0; i < 200; ++i) {
+    const double f = ChiSquareCdf(x, dof) - p;
+    (f < 0 ? lo : hi) = x;
+    if (hi - lo <= 1e-12 * hi || f == 0) break;
+    const double density = std::exp(log_norm + (a - 1) * std::log(x) - 0.5 * x);
+    double next = x - f / density;
+    if (!(next > lo && next < hi) || !std::isfinite(next)) next = 0.5 * (lo + hi);
+    if (std::abs(next - x) <= 1e-13 * x) {
+      x = next;
+      break;
+    }
+    x = next;
+  }
+  return x;
 }
 
 }  // namespace cfuse

@@ -7,7 +7,7 @@ namespace cfuse {
 // gamma P(dof/2, x/2): series below a + 1, continued fraction above; relative error ~1e-14).
 double ChiSquareCdf(double x, double dof);
 
-// The x with ChiSquareCdf(x, dof) = p, for 0 < p < 1 (bisection on the CDF to 1e-12 relative).
+// The x with ChiSquareCdf(x, dof) = p, for 0 < p < 1, to 1e-12 relative (safeguarded Newton).
 double ChiSquareQuantile(double p, double dof);
 
 }  // namespace cfuse

@@ -194,7 +194,7 @@ TEST_CASE("parametric: a truth on its limit is held there, never passed") {
   int on_limit = 0, trials = 40;
   for (int t = 0; t < trials; ++t) {
     // The prismatic joint fully retracted (its lower limit, 0).
-    std::vector<JointValue> given = {{"shoulder", 0.3}, {"extend", 0.0}};
+    std::vector<JointValue> given = {{"shoulder", 0.3, {}}, {"extend", 0.0, {}}};
     Values truth = ForwardKinematics(g, CompleteJointValues(g, given));
     SimulateOptions so;
     so.seed = 900 + t;
