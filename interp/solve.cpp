@@ -336,7 +336,19 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   solution.labels = ResolveLabels(graph, set);
   solution.extent = ModelExtent(graph);
 
-  Values initial = ClosedFormStart(graph, set, solution.labels, options);
+  // A guess that places every component makes the closed-form starts moot (the interpretation
+  // tree's final solves pass one).
+  const bool guess_covers_all =
+      options.guess &&
+      std::all_of(graph.components.begin(), graph.components.end(), [&](const Component& c) {
+        const auto named = [&](const auto& list) {
+          return std::any_of(list.begin(), list.end(),
+                             [&](const auto& e) { return e.name == c.name; });
+        };
+        return named(options.guess->components) || named(options.guess->points);
+      });
+  Values initial =
+      guess_covers_all ? graph.nominal : ClosedFormStart(graph, set, solution.labels, options);
 
   Values unplaced;  // the start before unmeasured points are placed: the fallback below
   if (options.guess) {
