@@ -62,8 +62,8 @@ std::optional<SegmentDetector> ParseDetector(const std::string& name);
 struct SegmentOptions {
   SegmentDetector detector = SegmentDetector::kLowe;
   double sigma = 1.2;            // px: the Gaussian of the LoG (and of Canny's smoothing)
-  double high_contrast = 30;     // grey levels: an edge this strong starts a chain
-  double low_contrast = 12;      // grey levels: an edge this strong continues one
+  double high_contrast = 20;     // grey levels: an edge this strong starts a chain
+  double low_contrast = 8;       // grey levels: an edge this strong continues one
   double min_length = 8;         // px: shorter segments are dropped
   double min_deviation = 0.75;   // px: the floor of a piece's deviation in its significance
   std::optional<PixelRect> roi;  // only this window is processed
