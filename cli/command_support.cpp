@@ -6,10 +6,13 @@
 #include <filesystem>
 #include <fstream>
 
+#include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "importers/cao.h"
 #include "importers/urdf.h"
 #include "kernel/check.h"
 #include "kernel/error.h"
+#include "vision/camera_file.h"
 
 namespace cfuse::cli {
 
@@ -39,6 +42,9 @@ dsl::LoadOptions ModelLoadOptions() {
   options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
     return importers::ImportUrdf(path, where);
   };
+  options.include_handlers[".cao"] = [](const std::string& path, const SourceLocation& where) {
+    return importers::ImportCao(path, where);
+  };
   return options;
 }
 
@@ -46,13 +52,19 @@ ConstraintGraph LoadAnyModel(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".urdf") return importers::ImportUrdf(path);
+  if (ext == ".cao") return importers::ImportCao(path);
   if (ext != ".yaml" && ext != ".yml") {
     throw InputError(SourceLocation(path),
-                     fmt::format("unsupported model format '{}': model files are .yaml, .yml or "
-                                 ".urdf",
+                     fmt::format("unsupported model format '{}': model files are .yaml, .yml, "
+                                 ".urdf or .cao",
                                  ext.empty() ? "(no extension)" : ext));
   }
   return dsl::LoadModel(path, ModelLoadOptions());
+}
+
+Camera LoadAnyCamera(const std::string& path) {
+  if (vision::IsOpenCvStorage(path)) return vision::ReadOpenCvCamera(path);
+  return dsl::ReadCameraFile(path);
 }
 
 // Writes `content` to `path` through a temporary file in the same directory, so that a

@@ -185,7 +185,7 @@ int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::o
     sim_options.occlusion = options.occlusion;
     sim_options.labels = options.labels;
     sim_options.sample_joints = options.sample_joints;
-    if (!options.camera.empty()) sim_options.camera = dsl::ReadCameraFile(options.camera);
+    if (!options.camera.empty()) sim_options.camera = LoadAnyCamera(options.camera);
     const Simulation sim = Simulate(graph, sim_options);
     const std::string measurements = MeasurementsJson(sim.measurements).dump(1) + "\n";
     const std::string truth = TruthJson(graph, sim.truth, sim.matches).dump(1) + "\n";

@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "cli/commands.h"
+#include "cli/image_commands.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"cfuse: pose estimation and interpretation of articulated and constrained objects"};
@@ -12,23 +13,23 @@ int main(int argc, char** argv) {
   cfuse::cli::CheckOptions check;
   CLI::App* check_cmd =
       app.add_subcommand("check", "Validate a model and summarise it, with its DOF");
-  check_cmd->add_option("MODEL", check.model, "Model file (.yaml or .urdf)")->required();
+  check_cmd->add_option("MODEL", check.model, "Model file (.yaml, .urdf or .cao)")->required();
   check_cmd->add_flag("--json", check.json, "Print the summary as JSON");
 
   cfuse::cli::GraphOptions graph;
   CLI::App* graph_cmd = app.add_subcommand("graph", "Write the constraint graph in Graphviz dot");
-  graph_cmd->add_option("MODEL", graph.model, "Model file (.yaml or .urdf)")->required();
+  graph_cmd->add_option("MODEL", graph.model, "Model file (.yaml, .urdf or .cao)")->required();
   graph_cmd->add_option("-o,--output", graph.output, "Output file (default: stdout)");
 
   cfuse::cli::PlanCommandOptions plan;
   CLI::App* plan_cmd = app.add_subcommand(
       "plan", "Print the fusion order (Hel-Or & Werman §6-7): constraints fused, points matched");
-  plan_cmd->add_option("MODEL", plan.model, "Model file (.yaml or .urdf)")->required();
+  plan_cmd->add_option("MODEL", plan.model, "Model file (.yaml, .urdf or .cao)")->required();
   plan_cmd->add_flag("--image", plan.image, "Plan for image (2D) measurements: seeds of 4 points");
 
   cfuse::cli::SolveCommandOptions solve;
   CLI::App* solve_cmd = app.add_subcommand("solve", "Estimate poses from labelled measurements");
-  solve_cmd->add_option("MODEL", solve.model, "Model file (.yaml or .urdf)")->required();
+  solve_cmd->add_option("MODEL", solve.model, "Model file (.yaml, .urdf or .cao)")->required();
   solve_cmd->add_option("--measurements", solve.measurements, "Measurements (.json or .yaml)")
       ->required();
   solve_cmd->add_option("--guess", solve.guess,
@@ -43,7 +44,7 @@ int main(int argc, char** argv) {
   cfuse::cli::InterpretCommandOptions interp;
   CLI::App* interp_cmd = app.add_subcommand(
       "interpret", "Match unlabelled measurements to the model and estimate (interpretation tree)");
-  interp_cmd->add_option("MODEL", interp.model, "Model file (.yaml or .urdf)")->required();
+  interp_cmd->add_option("MODEL", interp.model, "Model file (.yaml, .urdf or .cao)")->required();
   interp_cmd->add_option("--measurements", interp.measurements, "Measurements (.json or .yaml)")
       ->required();
   interp_cmd->add_option("-o,--output", interp.output, "Result file (default: stdout)");
@@ -57,12 +58,14 @@ int main(int argc, char** argv) {
   cfuse::cli::SimulateCommandOptions sim;
   CLI::App* sim_cmd =
       app.add_subcommand("simulate", "Synthetic measurements of a random configuration");
-  sim_cmd->add_option("MODEL", sim.model, "Model file (.yaml or .urdf)")->required();
+  sim_cmd->add_option("MODEL", sim.model, "Model file (.yaml, .urdf or .cao)")->required();
   sim_cmd->add_option("--seed", sim.seed, "Random seed");
   sim_cmd->add_option("--noise", sim.noise, "3D noise sigma, metres")->check(CLI::PositiveNumber);
   sim_cmd->add_option("--pixel-noise", sim.pixel_noise, "2D noise sigma, pixels")
       ->check(CLI::PositiveNumber);
-  sim_cmd->add_option("--camera", sim.camera, "Camera file: 2D measurements instead of 3D");
+  sim_cmd->add_option("--camera", sim.camera,
+                      "Camera file (cfuse's, an OpenCV calibration or a ROS camera_info): 2D "
+                      "measurements instead of 3D");
   sim_cmd->add_option("--clutter", sim.clutter, "Clutter points per real point")
       ->check(CLI::Range(0.0, 100.0));
   sim_cmd->add_option("--occlusion", sim.occlusion, "Fraction of model points not measured")
@@ -82,10 +85,49 @@ int main(int argc, char** argv) {
   CLI::App* fk_cmd =
       app.add_subcommand("fk", "Forward kinematics: every component's pose for joint values");
   cfuse::cli::FkOptions fk;
-  fk_cmd->add_option("MODEL", fk.model, "Model file (.yaml or .urdf)")->required();
+  fk_cmd->add_option("MODEL", fk.model, "Model file (.yaml, .urdf or .cao)")->required();
   fk_cmd->add_option("--joints", fk.joints,
                      "Joint values {\"name\": value} in rad or m (default: all 0)");
   fk_cmd->add_option("-o,--output", fk.output, "Pose file to write (default: stdout)");
+
+  CLI::App* segments_cmd =
+      app.add_subcommand("segments", "Detect straight line segments in an image");
+  cfuse::cli::SegmentsCommandOptions segments;
+  segments_cmd->add_option("IMAGE", segments.image, "Image (PNG, JPEG, ...; 8-bit grey or colour)")
+      ->required();
+  segments_cmd->add_option("--roi", segments.roi, "Only the region x,y,w,h (pixels)");
+  segments_cmd->add_option("--detector", segments.detector, "lowe (default), canny or lsd");
+  segments_cmd->add_option("-o,--output", segments.output, "Segments file (default: stdout)");
+  segments_cmd->add_option("--overlay", segments.overlay, "PNG of the segments on the image");
+
+  CLI::App* project_cmd =
+      app.add_subcommand("project", "The model's visible edges at a pose, in a camera's image");
+  cfuse::cli::ProjectCommandOptions project;
+  project_cmd->add_option("MODEL", project.model, "Model file (.yaml, .urdf or .cao)")->required();
+  project_cmd->add_option("--camera", project.camera, "Camera file")->required();
+  project_cmd->add_option("--pose", project.pose, "Poses (results format: its components)")
+      ->required();
+  project_cmd->add_option("-o,--output", project.output, "Edges file (default: stdout)");
+  project_cmd->add_option("--overlay", project.overlay, "PNG of the edges drawn on --image");
+  project_cmd->add_option("--image", project.image, "The image to draw the edges on");
+
+  CLI::App* render_cmd = app.add_subcommand(
+      "render", "A synthetic image of the model at a pose, with clutter, and its true edges");
+  cfuse::cli::RenderCommandOptions render;
+  render_cmd->add_option("MODEL", render.model, "Model file (.yaml, .urdf or .cao)")->required();
+  render_cmd->add_option("--camera", render.camera, "Camera file (no distortion)")->required();
+  render_cmd->add_option("--pose", render.pose, "Poses (results format: its components)")
+      ->required();
+  render_cmd->add_option("-o,--output", render.output, "PNG image to write")->required();
+  render_cmd->add_option("--truth", render.truth, "Visible edges file to write");
+  render_cmd->add_option("--seed", render.seed, "Random seed of the clutter and noise");
+  render_cmd->add_option("--noise", render.noise, "Noise sigma, grey levels")
+      ->check(CLI::Range(0.0, 100.0));
+  render_cmd->add_option("--blur", render.blur, "Blur sigma, pixels")->check(CLI::Range(0.0, 20.0));
+  render_cmd->add_option("--clutter-lines", render.clutter_lines, "Background lines")
+      ->check(CLI::Range(0, 10000));
+  render_cmd->add_option("--clutter-blobs", render.clutter_blobs, "Background blobs")
+      ->check(CLI::Range(0, 10000));
 
   CLI::App* demo_cmd = app.add_subcommand(
       "demo", "The built-in desk lamp: simulated with clutter and occlusion, then interpreted");
@@ -108,6 +150,9 @@ int main(int argc, char** argv) {
   if (*sim_cmd) return cfuse::cli::RunSimulate(sim, std::cout, std::cerr);
   if (*import_cmd) return cfuse::cli::RunImport(import, std::cout, std::cerr);
   if (*fk_cmd) return cfuse::cli::RunFk(fk, std::cout, std::cerr);
+  if (*segments_cmd) return cfuse::cli::RunSegments(segments, std::cout, std::cerr);
+  if (*project_cmd) return cfuse::cli::RunProject(project, std::cout, std::cerr);
+  if (*render_cmd) return cfuse::cli::RunRender(render, std::cout, std::cerr);
   if (*demo_cmd) return cfuse::cli::RunDemo(demo, std::cout, std::cerr);
   return 2;
 }

@@ -1,10 +1,13 @@
 #include "dsl/measurement_reader.h"
 
 #include <Eigen/Cholesky>
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "dsl/yaml_document.h"
 #include "dsl/yaml_numbers.h"
+#include "kernel/measurements/camera_checks.h"
 
 namespace cfuse::dsl {
 namespace {
@@ -84,7 +87,7 @@ Camera ReadCamera(const Document& doc, const YAML::Node& node) {
   camera.cy = *get("cy", true);
   for (const char* key : {"width", "height"}) {
     const double v = *get(key, true);
-    if (!(v >= 1) || v != std::floor(v) || v > 1e6) {
+    if (!IsImageSide(v)) {
       doc.Fail(Document::Find(entries, key),
                fmt::format("camera {} must be a positive whole number of pixels", key));
     }
@@ -92,20 +95,160 @@ Camera ReadCamera(const Document& doc, const YAML::Node& node) {
   }
   if (YAML::Node d = Document::Find(entries, "dist"); Present(d)) {
     if (!d.IsSequence()) doc.Fail(d, "camera dist must be a list of distortion coefficients");
-    const int n = static_cast<int>(d.size());
-    if (n == 14) {
-      doc.Fail(d,
-               "the tilted-sensor coefficients (14 values) are not supported; give 0, 4, 5, 8 "
-               "or 12 coefficients");
+    std::vector<double> coefficients(d.size());
+    for (size_t i = 0; i < d.size() && i < 14; ++i)
+      coefficients[i] = Number(doc, d[i], "camera dist");
+    if (const auto problem = DistortionProblem(coefficients)) {
+      doc.Fail(problem->index < 0 ? d : d[problem->index], "camera dist " + problem->message);
     }
-    if (n != 0 && n != 4 && n != 5 && n != 8 && n != 12) {
-      doc.Fail(d, fmt::format("camera dist has {} coefficients; OpenCV's model takes 4, 5, 8 or 12 "
-                              "(k1 k2 p1 p2 [k3 [k4 k5 k6 [s1 s2 s3 s4]]])",
-                              n));
-    }
-    for (int i = 0; i < n; ++i) camera.distortion[i] = Number(doc, d[i], "camera dist");
+    std::copy_n(coefficients.begin(), std::min<size_t>(coefficients.size(), 12),
+                camera.distortion.begin());
   }
+  if (const auto problem = PrincipalPointProblem(camera.cx, camera.cy, camera.width, camera.height))
+    doc.Fail(Document::Find(entries, problem->index == 0 ? "cx" : "cy"), problem->message);
   return camera;
+}
+
+// ROS camera_info files (camera_calibration_parsers' YAML, written by camera_calibration and
+// camera_info_manager): the size, K and the distortion are read; R and P are checked for shape
+// only, since cfuse measures raw (distorted) pixels and P describes the rectified image.
+const std::vector<std::string> kRosCameraInfoKeys = {
+    "image_width",          "image_height",     "camera_name",
+    "camera_matrix",        "distortion_model", "distortion_coefficients",
+    "rectification_matrix", "projection_matrix"};
+
+struct RosMatrix {
+  int rows = 0, cols = 0;
+  std::vector<double> values;  // row-major
+  YAML::Node data;
+};
+
+// {rows: R, cols: C, data: [R*C numbers]}.
+RosMatrix ReadRosMatrix(const Document& doc, const YAML::Node& node, const std::string& name) {
+  if (node.Tag().find("opencv-matrix") != std::string::npos ||
+      (node.IsMap() && Present(node["dt"]))) {
+    doc.Fail(node, fmt::format("{} is an OpenCV matrix (!!opencv-matrix), but the file does not "
+                               "start with OpenCV's '%YAML:1.0': add that first line to read it as "
+                               "an OpenCV calibration file",
+                               name));
+  }
+  const auto entries = doc.Entries(node, name, {"rows", "cols", "data"});
+  RosMatrix m;
+  for (const char* key : {"rows", "cols", "data"}) {
+    if (!Present(Document::Find(entries, key)))
+      doc.Fail(node, fmt::format("{} needs '{}' (a matrix is rows, cols and data)", name, key));
+  }
+  for (const char* key : {"rows", "cols"}) {
+    const YAML::Node n = Document::Find(entries, key);
+    const double v = Number(doc, n, fmt::format("{} {}", name, key));
+    if (!(v >= 0) || v != std::floor(v) || v > 1000)
+      doc.Fail(n, fmt::format("{} {} must be a whole number, got {}", name, key, v));
+    (std::string(key) == "rows" ? m.rows : m.cols) = static_cast<int>(v);
+  }
+  m.data = Document::Find(entries, "data");
+  doc.RequireSequence(m.data, name + " data");
+  if (m.data.size() != static_cast<size_t>(m.rows * m.cols)) {
+    doc.Fail(m.data, fmt::format("{} has rows: {}, cols: {} but {} values in data", name, m.rows,
+                                 m.cols, m.data.size()));
+  }
+  for (const YAML::Node& v : m.data) m.values.push_back(Number(doc, v, name + " data"));
+  return m;
+}
+
+RosMatrix ReadRosMatrix(const Document& doc, const YAML::Node& node, const std::string& name,
+                        int rows, int cols) {
+  RosMatrix m = ReadRosMatrix(doc, node, name);
+  if (m.rows != rows || m.cols != cols) {
+    doc.Fail(node, fmt::format("{} must be {}x{}, got rows: {}, cols: {}", name, rows, cols, m.rows,
+                               m.cols));
+  }
+  return m;
+}
+
+Camera ReadRosCameraInfo(const Document& doc, const YAML::Node& root) {
+  const auto entries = doc.Entries(root, "the camera_info", kRosCameraInfoKeys);
+  auto require = [&](const char* key) {
+    const YAML::Node n = Document::Find(entries, key);
+    if (!Present(n)) doc.Fail(root, fmt::format("a ROS camera_info file needs '{}'", key));
+    return n;
+  };
+  int size[2];
+  for (int i = 0; i < 2; ++i) {
+    const char* key = i == 0 ? "image_width" : "image_height";
+    const YAML::Node n = require(key);
+    const double v = Number(doc, n, key);
+    if (!IsImageSide(v))
+      doc.Fail(n, fmt::format("{} must be a positive whole number of pixels", key));
+    size[i] = static_cast<int>(v);
+  }
+  if (YAML::Node n = Document::Find(entries, "camera_name"); Present(n))
+    doc.Scalar(n, "camera_name");
+
+  const RosMatrix K = ReadRosMatrix(doc, require("camera_matrix"), "camera_matrix", 3, 3);
+  if (const auto problem = CameraMatrixProblem(K.values))
+    doc.Fail(K.data[problem->index], "camera_matrix: " + problem->message);
+  if (const auto problem = PrincipalPointProblem(K.values[2], K.values[5], size[0], size[1]))
+    doc.Fail(K.data[problem->index == 0 ? 2 : 5], "camera_matrix: " + problem->message);
+
+  std::string model = "plumb_bob";  // camera_calibration_parsers' default for older files
+  const YAML::Node model_node = Document::Find(entries, "distortion_model");
+  if (Present(model_node)) model = doc.Scalar(model_node, "distortion_model");
+  if (model == "equidistant" || model == "fisheye") {
+    doc.Fail(model_node, fmt::format("distortion_model '{}' is the fisheye (Kannala-Brandt) model; "
+                                     "cfuse's camera has OpenCV's pinhole distortion only "
+                                     "(plumb_bob or rational_polynomial)",
+                                     model));
+  }
+  if (model != "plumb_bob" && model != "rational_polynomial") {
+    doc.Fail(model_node, fmt::format("unknown distortion_model '{}': cfuse reads plumb_bob and "
+                                     "rational_polynomial",
+                                     model));
+  }
+  const YAML::Node d_node = require("distortion_coefficients");
+  const RosMatrix D = ReadRosMatrix(doc, d_node, "distortion_coefficients");
+  if (D.rows != 1 && D.cols != 1) {
+    doc.Fail(d_node, fmt::format("distortion_coefficients must be 1xN, got rows: {}, cols: {}",
+                                 D.rows, D.cols));
+  }
+  const size_t n = D.values.size();
+  // rational_polynomial is 8 in ROS; drivers publishing OpenCV's full vector use the same name
+  // for 12 or 14, which image_geometry hands to OpenCV as they are.
+  const bool count_ok = model == "plumb_bob" ? n == 5 : (n == 8 || n == 12 || n == 14);
+  if (!count_ok) {
+    doc.Fail(D.data, fmt::format("distortion_coefficients has {} coefficients but distortion_model "
+                                 "{} takes {}",
+                                 n, model,
+                                 model == "plumb_bob" ? "5 (k1 k2 p1 p2 k3)"
+                                                      : "8 (k1 k2 p1 p2 k3 k4 k5 k6), or "
+                                                        "OpenCV's 12 or 14"));
+  }
+  if (const auto problem = DistortionProblem(D.values)) {
+    doc.Fail(problem->index < 0 ? D.data : D.data[problem->index],
+             "distortion_coefficients " + problem->message);
+  }
+  if (YAML::Node n = Document::Find(entries, "rectification_matrix"); Present(n))
+    ReadRosMatrix(doc, n, "rectification_matrix", 3, 3);
+  if (YAML::Node n = Document::Find(entries, "projection_matrix"); Present(n))
+    ReadRosMatrix(doc, n, "projection_matrix", 3, 4);
+  return PinholeCamera(K.values, D.values, size[0], size[1]);
+}
+
+// cfuse's camera object (at the top or under `camera`) or a ROS camera_info, told apart by their
+// keys, which no two of them share.
+Camera ReadCameraText(const std::string& display, const std::string& text) {
+  CheckText(display, text, kCameraFile);
+  const Document doc(display, text, kCameraFile);
+  const YAML::Node root = doc.Parse();
+  if (!root.IsMap()) {
+    doc.Fail(root,
+             "a camera file is a mapping with fx, fy, cx, cy, width, height (or a ROS "
+             "camera_info)");
+  }
+  for (const std::string& key : kRosCameraInfoKeys) {
+    if (Present(root[key])) return ReadRosCameraInfo(doc, root);
+  }
+  if (Present(root["camera"])) return ReadCamera(doc, root["camera"]);
+  return ReadCamera(doc, root);
 }
 
 MeasurementSet Read(const std::string& display, const std::string& text) {
@@ -165,14 +308,11 @@ MeasurementSet ReadMeasurementsFromString(std::string_view text, const std::stri
 }
 
 Camera ReadCameraFile(const std::string& path) {
-  const std::string text = ReadTextFile(path, SourceLocation(), kCameraFile);
-  CheckText(path, text, kCameraFile);
-  const Document doc(path, text, kCameraFile);
-  const YAML::Node root = doc.Parse();
-  if (!root.IsMap())
-    doc.Fail(root, "a camera file is a mapping with fx, fy, cx, cy, width, height");
-  if (Present(root["camera"])) return ReadCamera(doc, root["camera"]);
-  return ReadCamera(doc, root);
+  return ReadCameraText(path, ReadTextFile(path, SourceLocation(), kCameraFile));
+}
+
+Camera ReadCameraFromString(std::string_view text, const std::string& display_name) {
+  return ReadCameraText(display_name, std::string(text));
 }
 
 }  // namespace cfuse::dsl

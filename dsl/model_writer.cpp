@@ -44,7 +44,8 @@ std::string WriteModel(const ConstraintGraph& graph) {
   }
   out += fmt::format("# {} as a cfuse model, written by `cfuse import` from {}.\n", title,
                      graph.source);
-  out += "# Lengths in metres, angles in radians; docs/urdf.md explains the names.\n";
+  out += "# Lengths in metres, angles in radians; docs/urdf.md and docs/cao.md explain the "
+         "names.\n";
   std::string name;
   for (char c : graph.name) {
     if (c == '"' || c == '\\') name += '\\';

@@ -1,0 +1,319 @@
+#include "cli/image_commands.h"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <ostream>
+#include <set>
+#include <sstream>
+
+#include "cli/command_support.h"
+#include "dsl/pose_reader.h"
+#include "interp/solve.h"
+#include "kernel/error.h"
+#include "vision/model_edges.h"
+#include "vision/render.h"
+#include "vision/segments.h"
+
+namespace cfuse::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::uintmax_t kMaxImageBytes = 512ull << 20;
+
+// Three decimals: a thousandth of a pixel is far below any detector's precision.
+double Round3(double x) { return std::round(x * 1000) / 1000; }
+
+nlohmann::json SegmentJson(double x1, double y1, double x2, double y2) {
+  return nlohmann::json::array({Round3(x1), Round3(y1), Round3(x2), Round3(y2)});
+}
+
+// An image as 8-bit grey (colour converted), or an InputError at the file saying why not.
+cv::Mat ReadGrayImage(const std::string& path) {
+  const SourceLocation where(path);
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(where, "cannot open: no such file");
+  if (fs::is_directory(path, ec)) throw InputError(where, "cannot open: it is a directory");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw InputError(where, "cannot open: " + ec.message());
+  if (size == 0) throw InputError(where, "the file is empty");
+  if (size > kMaxImageBytes) {
+    throw InputError(where, fmt::format("the file is larger than the {} MiB limit for images",
+                                        kMaxImageBytes >> 20));
+  }
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw InputError(where, fmt::format("cannot read the image: {}", e.msg));
+  }
+  if (image.empty()) {
+    throw InputError(where,
+                     "cannot read the image: not in a format OpenCV reads (PNG, JPEG, TIFF, BMP, "
+                     "PNM, ...) or damaged");
+  }
+  if (image.depth() != CV_8U) {
+    const char* depth = image.depth() == CV_16U   ? "16-bit"
+                        : image.depth() == CV_32F ? "float"
+                                                  : "non-8-bit";
+    throw InputError(where, fmt::format("the image has {} samples: give an 8-bit grey or colour "
+                                        "image",
+                                        depth));
+  }
+  cv::Mat gray;
+  switch (image.channels()) {
+    case 1:
+      gray = image;
+      break;
+    case 3:
+      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      throw InputError(where, fmt::format("the image has {} channels: give a grey (1), colour "
+                                          "(3) or colour-and-alpha (4) image",
+                                          image.channels()));
+  }
+  return gray;
+}
+
+std::string PngBytes(const cv::Mat& image) {
+  std::vector<std::uint8_t> bytes;
+  cv::imencode(".png", image, bytes);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+// "x,y,w,h": four whole numbers, the region inside the image.
+vision::PixelRect ParseRoi(const std::string& text, const std::string& image, int width,
+                           int height) {
+  std::vector<long> v;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    size_t used = 0;
+    long n = 0;
+    try {
+      n = std::stol(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    if (used == 0 || used != item.size()) {
+      throw InputError(SourceLocation(image),
+                       fmt::format("--roi '{}': expected x,y,w,h, four whole numbers", text));
+    }
+    v.push_back(n);
+  }
+  if (v.size() != 4) {
+    throw InputError(SourceLocation(image),
+                     fmt::format("--roi '{}': expected x,y,w,h, four whole numbers", text));
+  }
+  if (v[2] <= 0 || v[3] <= 0 || v[0] < 0 || v[1] < 0 || v[0] + v[2] > width ||
+      v[1] + v[3] > height) {
+    throw InputError(
+        SourceLocation(image),
+        fmt::format("--roi {}: the region is not inside the {} x {} image", text, width, height));
+  }
+  return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]),
+          static_cast<int>(v[3])};
+}
+
+// The model at the poses of a results-format file: every rigid component placed there
+// (itself, or through a frame on it), or an InputError naming the first one that is not.
+Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
+  const PoseSet poses = dsl::ReadPoses(pose_file);
+  Values values = graph.nominal;
+  ApplyGuess(graph, poses, &values);
+  std::set<int> placed;
+  for (const NamedPose& p : poses.components) {
+    if (const int c = graph.FindComponent(p.name); c >= 0) {
+      placed.insert(c);
+    } else if (const auto frame = graph.FindFrame(p.name)) {
+      placed.insert(frame->first);
+    }
+  }
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (graph.components[c].rigid && !placed.count(static_cast<int>(c))) {
+      throw InputError(SourceLocation(pose_file),
+                       fmt::format("no pose for component '{}' of model '{}' under "
+                                   "'components'",
+                                   graph.components[c].name, graph.name));
+    }
+  }
+  return values;
+}
+
+// JSON indented, but each array of numbers (a segment) on one line.
+std::string Dump(const nlohmann::json& json) {
+  const std::string text = json.dump(1);
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size(); ++i) {
+    if (text[i] == '[') {
+      // Collapse when only numbers, commas and white space come before the closing bracket.
+      size_t j = i + 1;
+      while (j < text.size() && (std::isdigit(static_cast<unsigned char>(text[j])) ||
+                                 std::strchr("-+.eE, \n", text[j]))) {
+        ++j;
+      }
+      if (j < text.size() && text[j] == ']' && j > i + 1) {
+        std::string inner;
+        for (size_t k = i + 1; k < j; ++k) {
+          if (text[k] == '\n') continue;
+          if (text[k] == ' ' && (inner.empty() || inner.back() != ',')) continue;
+          inner += text[k];
+        }
+        out += "[" + inner + "]";
+        i = j;
+        continue;
+      }
+    }
+    out += text[i];
+  }
+  return out + "\n";
+}
+
+void WriteOrPrint(const std::string& path, const nlohmann::json& json, std::ostream& out) {
+  const std::string text = Dump(json);
+  if (path.empty()) {
+    out << text;
+  } else {
+    WriteFileAtomically(path, text);
+  }
+}
+
+}  // namespace
+
+int RunSegments(const SegmentsCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const std::optional<vision::SegmentDetector> detector = vision::ParseDetector(options.detector);
+    if (!detector) {
+      throw InputError(
+          SourceLocation(options.image),
+          fmt::format("--detector '{}': the detectors are lowe, canny and lsd", options.detector));
+    }
+    const cv::Mat image = ReadGrayImage(options.image);
+    vision::SegmentOptions so;
+    so.detector = *detector;
+    if (!options.roi.empty()) so.roi = ParseRoi(options.roi, options.image, image.cols, image.rows);
+    vision::StageTimes times;
+    const std::vector<vision::ImageSegment> segments = vision::DetectSegments(
+        {image.data, image.cols, image.rows, static_cast<int>(image.step)}, so, &times);
+    nlohmann::json json = {{"width", image.cols},
+                           {"height", image.rows},
+                           {"detector", vision::DetectorName(*detector)},
+                           {"segments", nlohmann::json::array()}};
+    for (const vision::ImageSegment& s : segments) {
+      json["segments"].push_back(SegmentJson(s.a.x(), s.a.y(), s.b.x(), s.b.y()));
+    }
+    json["time_ms"] = Round3(times.Total());
+    if (!options.overlay.empty()) {
+      cv::Mat picture;
+      cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
+      if (so.roi) {
+        cv::rectangle(picture, cv::Rect(so.roi->x, so.roi->y, so.roi->width, so.roi->height),
+                      cv::Scalar(255, 160, 0), 1);
+      }
+      for (const vision::ImageSegment& s : segments) {
+        cv::line(picture, cv::Point2f(s.a.x(), s.a.y()), cv::Point2f(s.b.x(), s.b.y()),
+                 cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
+      }
+      WriteFileAtomically(options.overlay, PngBytes(picture));
+    }
+    WriteOrPrint(options.output, json, out);
+    return 0;
+  });
+}
+
+int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    const Camera camera = LoadAnyCamera(options.camera);
+    if (camera.width <= 0 || camera.height <= 0) {
+      throw InputError(SourceLocation(options.camera),
+                       "the camera needs its image size (width and height) to clip edges to");
+    }
+    if (!options.overlay.empty() && options.image.empty()) {
+      throw InputError(SourceLocation(options.overlay),
+                       "--overlay draws on an image: give --image");
+    }
+    const Values values = PosedModel(graph, options.pose);
+    const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
+    const std::vector<vision::ProjectedEdge> visible =
+        vision::VisibleEdges(graph, edges, values, camera);
+    nlohmann::json json = {{"width", camera.width},
+                           {"height", camera.height},
+                           {"edges", nlohmann::json::array()},
+                           {"names", nlohmann::json::array()}};
+    for (const vision::ProjectedEdge& e : visible) {
+      json["edges"].push_back(SegmentJson(e.a.x(), e.a.y(), e.b.x(), e.b.y()));
+      json["names"].push_back(graph.components[edges[e.edge].component].name + "." +
+                              edges[e.edge].name);
+    }
+    if (!options.overlay.empty()) {
+      const cv::Mat image = ReadGrayImage(options.image);
+      if (image.cols != camera.width || image.rows != camera.height) {
+        throw InputError(SourceLocation(options.image),
+                         fmt::format("the image is {} x {}, the camera's {} x {}", image.cols,
+                                     image.rows, camera.width, camera.height));
+      }
+      cv::Mat picture;
+      cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
+      for (const vision::ProjectedEdge& e : visible) {
+        cv::line(picture, cv::Point2d(e.a.x(), e.a.y()), cv::Point2d(e.b.x(), e.b.y()),
+                 cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
+      }
+      WriteFileAtomically(options.overlay, PngBytes(picture));
+    }
+    WriteOrPrint(options.output, json, out);
+    return 0;
+  });
+}
+
+int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    const Camera camera = LoadAnyCamera(options.camera);
+    const Values values = PosedModel(graph, options.pose);
+    vision::RenderOptions ro;
+    ro.seed = options.seed;
+    ro.noise = options.noise;
+    ro.blur = options.blur;
+    ro.clutter_lines = options.clutter_lines;
+    ro.clutter_blobs = options.clutter_blobs;
+    vision::Rendering r;
+    try {
+      r = vision::Render(graph, values, camera, ro);
+    } catch (const std::invalid_argument& e) {
+      throw InputError(SourceLocation(options.camera), e.what());
+    }
+    const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
+    nlohmann::json truth = {{"width", r.width},
+                            {"height", r.height},
+                            {"edges", nlohmann::json::array()},
+                            {"names", nlohmann::json::array()}};
+    for (const vision::TruthSegment& s : r.truth) {
+      truth["edges"].push_back(SegmentJson(s.a.x(), s.a.y(), s.b.x(), s.b.y()));
+      truth["names"].push_back(graph.components[edges[s.edge].component].name + "." +
+                               edges[s.edge].name);
+    }
+    const std::vector<std::uint8_t> png = vision::EncodePng(r.pixels, r.width, r.height);
+    WriteFileAtomically(options.output, std::string(png.begin(), png.end()));
+    if (!options.truth.empty()) WriteFileAtomically(options.truth, Dump(truth));
+    out << fmt::format("rendered '{}' at {} x {} -> {}{}\n", graph.name, r.width, r.height,
+                       options.output,
+                       options.truth.empty() ? "" : ", its visible edges -> " + options.truth);
+    return 0;
+  });
+}
+
+}  // namespace cfuse::cli
