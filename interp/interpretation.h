@@ -75,7 +75,10 @@
 
 #include <array>
 #include <functional>
+#include <map>
+#include <mutex>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "constraints/graph.h"
@@ -91,7 +94,35 @@ using PosesFromThreeProjections = std::function<std::vector<Rigid3d>(
     const Camera& camera, const std::array<Eigen::Vector3d, 3>& object_points,
     const std::array<Eigen::Vector2d, 3>& image_points)>;
 
+// What an interpretation takes from the model alone, kept between interpretations of one model:
+// its fusion plans (one per seed set and data kind) and its rigid triangles. The fusion order
+// is the model's, computed before any data arrive (Hel-Or & Werman §6); a program that
+// interprets many measurement sets of one model (a sequence of frames, a benchmark) passes one
+// cache in InterpretOptions::plans and plans once. It belongs to one graph (checked), and may
+// be shared between threads.
+class PlanCache {
+ public:
+  explicit PlanCache(const ConstraintGraph& graph) : graph_(&graph) {}
+  const ConstraintGraph& graph() const { return *graph_; }
+
+  // The plan for data kind `image` starting at `start` (null: the automatic start), made by
+  // `make` the first time.
+  FusionPlan Plan(bool image, const PlanStart* start,
+                  const std::function<FusionPlan()>& make) const;
+  // The rigid triangles with or without the constraints between components.
+  std::vector<std::array<int, 3>> Triangles(
+      bool between_components, const std::function<std::vector<std::array<int, 3>>()>& make) const;
+
+ private:
+  const ConstraintGraph* graph_;
+  mutable std::mutex mutex_;
+  mutable std::map<std::tuple<bool, std::vector<int>, std::vector<int>>, FusionPlan> plans_;
+  mutable std::map<bool, std::vector<std::array<int, 3>>> triangles_;
+};
+
 struct InterpretOptions {
+  // Plans kept between interpretations of one model (above); null: planned afresh each time.
+  const PlanCache* plans = nullptr;
   // Of the chi-square gates (matches and constraints). An interpretation of the lamp runs about
   // 80 such tests; at 0.999 one true match in ten trials failed one of them.
   double gate_confidence = 0.9999;
