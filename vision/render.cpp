@@ -16,6 +16,7 @@ namespace {
 constexpr double kNearPlane = 1e-3;
 constexpr int kShift = 4;  // fillPoly's fractional bits: vertices to 1/16 px
 constexpr int kFaceStride = 1 << 16;
+constexpr int kOccluder = -2;  // in the face buffer (-1: background)
 
 // Face albedo classes by greedy colouring of the faces' adjacency (faces sharing a side get
 // different classes; three suffice for boxes and most polyhedra, more are used if needed).
@@ -62,7 +63,8 @@ struct Scene {
     return {(u - camera.cx) / camera.fx, (v - camera.cy) / camera.fy, 1};
   }
   // Depth at pixel (u, v) of the plane through p with normal n; NaN if parallel to the ray.
-  double DepthOnPlane(double u, double v, const Eigen::Vector3d& n, const Eigen::Vector3d& p) const {
+  double DepthOnPlane(double u, double v, const Eigen::Vector3d& n,
+                      const Eigen::Vector3d& p) const {
     const Eigen::Vector3d r = Ray(u, v);
     if (camera.model == Camera::Model::kOrthographic) {
       if (std::abs(n.z()) < 1e-12) return std::numeric_limits<double>::quiet_NaN();
@@ -102,8 +104,7 @@ Rendering Render(const ConstraintGraph& graph, const Values& values, const Camer
              cv::Scalar(dark(rng)), thickness(rng), cv::LINE_AA);
   }
 
-  Scene scene{camera, cv::Mat1f(h, w, std::numeric_limits<float>::infinity()),
-              cv::Mat1i(h, w, -1)};
+  Scene scene{camera, cv::Mat1f(h, w, std::numeric_limits<float>::infinity()), cv::Mat1i(h, w, -1)};
   const Eigen::Vector3d light = Eigen::Vector3d(-0.5, -0.7, -1).normalized();
   constexpr int kBase[] = {150, 195, 235, 125, 170, 215};
   for (size_t ci = 0; ci < graph.components.size(); ++ci) {
@@ -132,8 +133,8 @@ Rendering Render(const ConstraintGraph& graph, const Values& values, const Camer
       if (normal.norm() == 0) continue;
       normal.normalize();
       const double lambert = std::max(0.0, normal.dot(light));
-      const int shade = std::min(
-          250, kBase[classes[f] % 6] + static_cast<int>(std::lround(15 * lambert)));
+      const int shade =
+          std::min(250, kBase[classes[f] % 6] + static_cast<int>(std::lround(15 * lambert)));
       cv::Mat1b mask(h, w, static_cast<std::uint8_t>(0));
       const std::vector<std::vector<cv::Point>> polygons = {polygon};
       cv::fillPoly(mask, polygons, cv::Scalar(255), cv::LINE_8, kShift);
@@ -155,11 +156,27 @@ Rendering Render(const ConstraintGraph& graph, const Values& values, const Camer
     }
   }
 
+  // Occluders in front of everything: nearest of all, and no face of the model.
+  for (const std::vector<Eigen::Vector2d>& polygon : options.occluders) {
+    if (polygon.size() < 3) continue;
+    std::vector<cv::Point> points;
+    for (const Eigen::Vector2d& p : polygon) {
+      points.emplace_back(static_cast<int>(std::lround(p.x() * (1 << kShift))),
+                          static_cast<int>(std::lround(p.y() * (1 << kShift))));
+    }
+    cv::Mat1b mask(h, w, static_cast<std::uint8_t>(0));
+    const std::vector<std::vector<cv::Point>> polygons = {points};
+    cv::fillPoly(mask, polygons, cv::Scalar(255), cv::LINE_8, kShift);
+    image.setTo(options.occluder_grey, mask);
+    scene.depth.setTo(0, mask);
+    scene.face.setTo(kOccluder, mask);
+  }
+
   // The truth: visible edges sampled against the buffers. A sample is in front where its pixel
-  // shows one of the edge's own faces, nothing, or a face no nearer than it (by the depth one
-  // pixel spans at a slant of 70 degrees: the pixel centre lies up to 0.7 px off the edge).
-  // And it shows where the clean image differs by `min_contrast` 2 px either side of it: two
-  // faces of one shade meeting (a lid lying on its box at the same grey) make no edge.
+  // shows one of the edge's own faces, the background, or a face no nearer than it (by the depth
+  // one pixel spans at a slant of 70 degrees: the pixel centre lies up to 0.7 px off the edge). And
+  // it shows where the clean image differs by `min_contrast` 2 px either side of it: two faces of
+  // one shade meeting (a lid lying on its box at the same grey) make no edge.
   Rendering out;
   out.width = w;
   out.height = h;
@@ -180,27 +197,30 @@ Rendering Render(const ConstraintGraph& graph, const Values& values, const Camer
       const double t = static_cast<double>(k) / (n - 1);
       const Eigen::Vector3d P = e.A + t * (e.B - e.A);
       const Eigen::Vector2d uv = e.a + t * (e.b - e.a);
-      const int u = static_cast<int>(std::lround(uv.x())), v = static_cast<int>(std::lround(uv.y()));
+      const int u = static_cast<int>(std::lround(uv.x())),
+                v = static_cast<int>(std::lround(uv.y()));
       bool visible = true;
       const Eigen::Vector2d normal =
           length > 0 ? Eigen::Vector2d(Eigen::Vector2d(-(e.b - e.a).y(), (e.b - e.a).x()) / length)
                      : Eigen::Vector2d(Eigen::Vector2d::UnitX());
       const Eigen::Vector2d p1 = uv + 2 * normal, p2 = uv - 2 * normal;
-      const int u1 = static_cast<int>(std::lround(p1.x())), v1 = static_cast<int>(std::lround(p1.y()));
-      const int u2 = static_cast<int>(std::lround(p2.x())), v2 = static_cast<int>(std::lround(p2.y()));
+      const int u1 = static_cast<int>(std::lround(p1.x())),
+                v1 = static_cast<int>(std::lround(p1.y()));
+      const int u2 = static_cast<int>(std::lround(p2.x())),
+                v2 = static_cast<int>(std::lround(p2.y()));
       if (u1 >= 0 && v1 >= 0 && u1 < w && v1 < h && u2 >= 0 && v2 >= 0 && u2 < w && v2 < h &&
           std::abs(image(v1, u1) - image(v2, u2)) < options.min_contrast) {
         visible = false;
       } else if (u >= 0 && v >= 0 && u < w && v < h) {
         const int id = scene.face(v, u);
         const ModelEdge& me = edges[e.edge];
-        const bool own = id >= 0 && id / kFaceStride == me.component &&
-                         std::find(me.faces.begin(), me.faces.end(), id % kFaceStride) !=
-                             me.faces.end();
+        const bool own =
+            id >= 0 && id / kFaceStride == me.component &&
+            std::find(me.faces.begin(), me.faces.end(), id % kFaceStride) != me.faces.end();
         const double pixel = camera.model == Camera::Model::kOrthographic
                                  ? 1 / camera.scale
                                  : std::abs(P.z()) / camera.fx;
-        visible = own || id < 0 || scene.depth(v, u) >= P.z() - 3 * pixel;
+        visible = own || id == -1 || scene.depth(v, u) >= P.z() - 3 * pixel;
       }
       if (visible && run_start < 0) run_start = k;
       if (!visible) close_run(k - 1);

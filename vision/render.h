@@ -34,6 +34,10 @@ struct RenderOptions {
   // Grey levels: a stretch of edge shows (and is true) where the image differs by this much
   // either side of it.
   double min_contrast = 15;
+  // Polygons (pixels) drawn in front of everything in a dark grey: occluders, which hide the
+  // edges behind them from the truth too.
+  std::vector<std::vector<Eigen::Vector2d>> occluders;
+  int occluder_grey = 45;
 };
 
 struct TruthSegment {
@@ -52,7 +56,6 @@ Rendering Render(const ConstraintGraph& graph, const Values& values, const Camer
                  const RenderOptions& options = {});
 
 // The PNG bytes of an 8-bit grey image.
-std::vector<std::uint8_t> EncodePng(const std::vector<std::uint8_t>& pixels, int width,
-                                    int height);
+std::vector<std::uint8_t> EncodePng(const std::vector<std::uint8_t>& pixels, int width, int height);
 
 }  // namespace cfuse::vision
