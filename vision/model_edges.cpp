@@ -55,8 +55,7 @@ bool FrontFacing(const ConstraintGraph& graph, int component, int face, const Va
   Eigen::Vector3d normal = Eigen::Vector3d::Zero(), centre = Eigen::Vector3d::Zero();
   for (size_t k = 0; k < loop.size(); ++k) {
     const Eigen::Vector3d p = PointInCamera(graph, values, component, loop[k]);
-    const Eigen::Vector3d q =
-        PointInCamera(graph, values, component, loop[(k + 1) % loop.size()]);
+    const Eigen::Vector3d q = PointInCamera(graph, values, component, loop[(k + 1) % loop.size()]);
     normal += p.cross(q);
     centre += p;
   }
@@ -70,8 +69,8 @@ bool ClipToRectangle(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, Eigen
   const Eigen::Vector2d d = *b - *a;
   double t0 = 0, t1 = 1;
   for (int axis = 0; axis < 2; ++axis) {
-    for (const auto& [p, q] : {std::pair{-d[axis], (*a)[axis] - lo[axis]},
-                               std::pair{d[axis], hi[axis] - (*a)[axis]}}) {
+    for (const auto& [p, q] :
+         {std::pair{-d[axis], (*a)[axis] - lo[axis]}, std::pair{d[axis], hi[axis] - (*a)[axis]}}) {
       if (p == 0) {
         if (q < 0) return false;
         continue;
@@ -92,27 +91,117 @@ bool ClipToRectangle(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, Eigen
   return true;
 }
 
+namespace {
+
+// A face as the camera sees it: its corners in the camera frame, its unit normal, whether it
+// shows its edges under `visibility`, and its image polygon.
+struct SeenFace {
+  int component = -1;
+  std::vector<Eigen::Vector3d> corners;
+  Eigen::Vector3d normal = Eigen::Vector3d::Zero();
+  std::vector<Eigen::Vector2d> image;
+  bool front = false;  // faces the camera at all
+  bool shows = false;  // and shows its edges (facing and width)
+};
+
+SeenFace See(const ConstraintGraph& graph, int component, int face, const Values& values,
+             const Camera& camera, const Visibility& visibility) {
+  SeenFace s;
+  s.component = component;
+  const std::vector<int>& loop = graph.components[component].faces[face].loop;
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (int k : loop) {
+    s.corners.push_back(PointInCamera(graph, values, component, k));
+    centre += s.corners.back();
+  }
+  centre /= static_cast<double>(std::max<size_t>(1, loop.size()));
+  for (size_t k = 0; k < s.corners.size(); ++k) {
+    s.normal += s.corners[k].cross(s.corners[(k + 1) % s.corners.size()]);
+  }
+  if (s.normal.norm() == 0) return s;
+  s.normal.normalize();
+  const Eigen::Vector3d towards = camera.model == Camera::Model::kOrthographic
+                                      ? Eigen::Vector3d(0, 0, -1)
+                                      : Eigen::Vector3d(-centre.normalized());
+  const double facing = s.normal.dot(towards);
+  s.front = facing > 0;
+  if (!s.front) return s;
+  s.shows = facing >= visibility.min_facing;
+  bool finite = true;
+  for (const Eigen::Vector3d& p : s.corners) {
+    const Eigen::Vector2d uv = camera.Project<double>(p);
+    finite = finite && uv.allFinite();
+    s.image.push_back(uv);
+  }
+  if (!finite) {
+    s.image.clear();
+    return s;
+  }
+  if (visibility.min_face_width > 0) {
+    double area = 0, perimeter = 0;
+    for (size_t k = 0; k < s.image.size(); ++k) {
+      const Eigen::Vector2d& a = s.image[k];
+      const Eigen::Vector2d& b = s.image[(k + 1) % s.image.size()];
+      area += a.x() * b.y() - a.y() * b.x();
+      perimeter += (b - a).norm();
+    }
+    s.shows = s.shows && perimeter > 0 && std::abs(area) / perimeter >= visibility.min_face_width;
+  }
+  return s;
+}
+
+bool InsidePolygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vector2d& p) {
+  bool inside = false;
+  for (size_t i = 0, j = polygon.size() - 1; i < polygon.size(); j = i++) {
+    const Eigen::Vector2d &a = polygon[i], &b = polygon[j];
+    if ((a.y() > p.y()) != (b.y() > p.y()) &&
+        p.x() < (b.x() - a.x()) * (p.y() - a.y()) / (b.y() - a.y()) + a.x()) {
+      inside = !inside;
+    }
+  }
+  return inside;
+}
+
+// Whether face f lies in front of camera-frame point P (on the ray through P, nearer).
+bool InFront(const SeenFace& f, const Eigen::Vector3d& P, const Camera& camera) {
+  if (camera.model == Camera::Model::kOrthographic) {
+    if (std::abs(f.normal.z()) < 1e-12) return false;
+    const double z =
+        (f.normal.dot(f.corners[0]) - f.normal.x() * P.x() - f.normal.y() * P.y()) / f.normal.z();
+    return z < P.z() - 1e-6 * std::abs(P.z()) - 1e-9;
+  }
+  const double along = f.normal.dot(P);
+  if (std::abs(along) < 1e-12) return false;
+  const double t = f.normal.dot(f.corners[0]) / along;  // the plane meets the ray at t P
+  return t > 0 && t < 1 - 1e-6;
+}
+
+}  // namespace
+
 std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
                                         const std::vector<ModelEdge>& edges, const Values& values,
-                                        const Camera& camera) {
+                                        const Camera& camera, const Visibility& visibility) {
   std::vector<ProjectedEdge> out;
-  // Front-facing, per (component, face), computed once.
-  std::map<std::pair<int, int>, bool> front;
-  auto faces_camera = [&](int component, int face) {
-    const auto key = std::make_pair(component, face);
-    auto it = front.find(key);
-    if (it == front.end()) {
-      it = front.emplace(key, FrontFacing(graph, component, face, values, camera)).first;
+  // Every face, seen once.
+  std::map<std::pair<int, int>, SeenFace> seen;
+  std::vector<const SeenFace*> fronts;
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (!graph.components[c].rigid) continue;
+    for (size_t f = 0; f < graph.components[c].faces.size(); ++f) {
+      const auto key = std::make_pair(static_cast<int>(c), static_cast<int>(f));
+      SeenFace& s = seen.emplace(key, See(graph, static_cast<int>(c), static_cast<int>(f), values,
+                                          camera, visibility))
+                        .first->second;
+      if (s.front && s.image.size() >= 3) fronts.push_back(&s);
     }
-    return it->second;
-  };
+  }
   const Eigen::Vector2d lo(-0.5, -0.5);
   const Eigen::Vector2d hi(camera.width > 0 ? camera.width - 0.5 : 1e9,
                            camera.height > 0 ? camera.height - 0.5 : 1e9);
   for (size_t i = 0; i < edges.size(); ++i) {
     const ModelEdge& e = edges[i];
     if (!e.faces.empty() && std::none_of(e.faces.begin(), e.faces.end(), [&](int f) {
-          return faces_camera(e.component, f);
+          return seen.at({e.component, f}).shows;
         })) {
       continue;
     }
@@ -122,6 +211,21 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
       if (A.z() < kNearPlane && B.z() < kNearPlane) continue;
       if (A.z() < kNearPlane) A = B + (A - B) * ((B.z() - kNearPlane) / (B.z() - A.z()));
       if (B.z() < kNearPlane) B = A + (B - A) * ((A.z() - kNearPlane) / (A.z() - B.z()));
+    }
+    if (visibility.occlusion) {
+      // Hidden when its middle and quarter points all lie behind another part's front face.
+      bool hidden = true;
+      for (double t : {0.25, 0.5, 0.75}) {
+        const Eigen::Vector3d P = A + t * (B - A);
+        const Eigen::Vector2d p = camera.Project<double>(P);
+        const bool behind =
+            p.allFinite() && std::any_of(fronts.begin(), fronts.end(), [&](const SeenFace* f) {
+              return f->component != e.component && InsidePolygon(f->image, p) &&
+                     InFront(*f, P, camera);
+            });
+        hidden = hidden && behind;
+      }
+      if (hidden) continue;
     }
     Eigen::Vector2d a = camera.Project<double>(A), b = camera.Project<double>(B);
     if (!a.allFinite() || !b.allFinite()) continue;

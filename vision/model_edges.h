@@ -34,15 +34,27 @@ struct ModelEdge {
 std::vector<ModelEdge> ModelEdges(const ConstraintGraph& graph);
 
 struct ProjectedEdge {
-  int edge = -1;                 // index into ModelEdges()
-  Eigen::Vector3d A, B;          // its visible part in the camera frame, metres
-  Eigen::Vector2d a, b;          // the same projected and clipped to the image, pixels
+  int edge = -1;         // index into ModelEdges()
+  Eigen::Vector3d A, B;  // its visible part in the camera frame, metres
+  Eigen::Vector2d a, b;  // the same projected and clipped to the image, pixels
+};
+
+// Stricter visibility, for matching (the tracker): a face shows its edges only when it turns
+// towards the camera by at least `min_facing` (the cosine of its normal with the direction to
+// the camera) and its image is at least `min_face_width` pixels across (twice its area over its
+// perimeter): a face seen nearly edge-on, or a thin plate's rim, puts its edges within a pixel
+// or two of each other, and a segment there could be either. With `occlusion`, an edge whose
+// midpoint and quarter points all lie behind another component's front face is hidden too.
+struct Visibility {
+  double min_facing = 0;
+  double min_face_width = 0;  // px
+  bool occlusion = false;
 };
 
 // The visible edges at `values` (camera frame = world frame, as for image measurements).
 std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
                                         const std::vector<ModelEdge>& edges, const Values& values,
-                                        const Camera& camera);
+                                        const Camera& camera, const Visibility& visibility = {});
 
 // Whether face `face` of rigid component `component` faces the camera at `values`.
 bool FrontFacing(const ConstraintGraph& graph, int component, int face, const Values& values,
