@@ -16,6 +16,7 @@ packages=(
   libfmt-dev           # message formatting (everywhere)
   catch2               # unit tests (v2, with ctest integration)
   libbenchmark-dev     # benchmarks (bench)
+  libvisp-mbt-dev      # (bench only: ViSP's edge tracker as a peer)
   graphviz             # renders `cfuse graph` output in tests
 )
 

@@ -29,8 +29,9 @@ Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, int 
   const double t = static_cast<double>(i);
   const Eigen::Vector3d turn = spec.spin * t;
   const Eigen::Matrix3d R = ExpSO3<double>(turn) * spec.start.RotationMatrix();
-  const Eigen::Vector3d position = spec.start.translation + spec.velocity * t +
-                                   spec.wobble * std::sin(2 * M_PI * t / spec.wobble_period);
+  Eigen::Vector3d position = spec.start.translation + spec.velocity * t +
+                             spec.wobble * std::sin(2 * M_PI * t / spec.wobble_period);
+  if (spec.jump_frame >= 0 && i >= spec.jump_frame) position += spec.jump;
   const Rigid3d camera_from_root(R, position);
   const Rigid3d root_from_model =
       values.poses[graph.blocks[graph.components[root].block].index].Inverse();
@@ -38,6 +39,20 @@ Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, int 
   for (Rigid3d& pose : values.poses) pose = camera_from_model * pose;
   for (Eigen::Vector3d& p : values.points) p = camera_from_model * p;
   return values;
+}
+
+Rigid3d LookAt(const Eigen::Vector3d& target, double azimuth, double elevation, double distance) {
+  const Eigen::Vector3d eye =
+      target + distance * Eigen::Vector3d(std::sin(azimuth) * std::cos(elevation),
+                                          -std::cos(azimuth) * std::cos(elevation),
+                                          std::sin(elevation));
+  const Eigen::Vector3d z = (target - eye).normalized();
+  const Eigen::Vector3d x = z.cross(Eigen::Vector3d::UnitZ()).normalized();
+  const Eigen::Vector3d y = z.cross(x);
+  Eigen::Matrix3d model_from_camera;
+  model_from_camera << x, y, z;
+  const Eigen::Matrix3d camera_from_model = model_from_camera.transpose();
+  return Rigid3d(camera_from_model, -(camera_from_model * eye));
 }
 
 std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Camera& camera,

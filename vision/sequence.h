@@ -32,7 +32,16 @@ struct SequenceSpec {
   // A dark bar sweeping across the image, as wide as this share of the image's width (0: none),
   // from left to right over the sequence.
   double occluder_width = 0;
+  // A sudden displacement from frame `jump_frame` on (the object knocked): the tracker's
+  // prediction misses it by that much.
+  Eigen::Vector3d jump = Eigen::Vector3d::Zero();
+  int jump_frame = -1;
 };
+
+// camera_from_model for a camera looking at `target` (model coordinates) from `distance` away,
+// at `azimuth` about the model's z axis from its -y side and `elevation` above its xy plane
+// (radians), the image's up along the model's z.
+Rigid3d LookAt(const Eigen::Vector3d& target, double azimuth, double elevation, double distance);
 
 struct SequenceFrame {
   Values truth;         // every component's pose in the camera frame
