@@ -1,5 +1,6 @@
 #include "track/tracker.h"
 
+#include <Eigen/Eigenvalues>
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -85,6 +86,12 @@ double MatchProbability(const EdgeModel& e, const Eigen::Vector2d& p, const Eige
   return density / (density + clutter);
 }
 
+// How much of the visible model a match set explains: the matched share of the visible edges'
+// length, and the least such share of any component in view.
+struct Coverage {
+  double share = 0, least = 0;
+};
+
 // The length of segment (p, q) along edge e, within the edge's visible part.
 double Overlap(const EdgeModel& e, const Eigen::Vector2d& p, const Eigen::Vector2d& q) {
   double t0 = e.dir.dot(p - e.a), t1 = e.dir.dot(q - e.a);
@@ -105,18 +112,21 @@ Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Value
     constraints_.push_back({c.residual, c.blocks, {}, c.name});
   const DofReport dof = AnalyzeDof(graph_, graph_.nominal);
   if (dof.computed) dof_ = dof.dof;
-  history_ = {initial};
+  history_ = {{0, initial}};
 }
 
 Values Tracker::Predicted() const {
-  Values predicted = history_.back();
+  const auto& [last_frame, last] = history_.back();
+  Values predicted = last;
   if (history_.size() >= 2) {
-    // The last step again, once per frame since the last verified one, in each block's chart
-    // (the object moves on while it is lost).
-    const Eigen::VectorXd step = LocalCoordinates(graph_.blocks, history_[0], history_[1]);
-    // (at most two steps: a velocity is only as good as the frames it came from)
-    Retract(graph_.blocks, step * static_cast<double>(std::min(since_verified_ + 1, 2)),
-            &predicted);
+    // The velocity of the last two verified frames, per frame, in each block's chart, carried
+    // on to this frame (the object moves on while it is lost), at most `max_extrapolation`
+    // frames ahead: a velocity is only as good as the frames it came from.
+    const auto& [first_frame, first] = history_.front();
+    const Eigen::VectorXd step = LocalCoordinates(graph_.blocks, first, last) /
+                                 static_cast<double>(last_frame - first_frame);
+    const int ahead = std::min(frame_ - last_frame, options_.max_extrapolation);
+    Retract(graph_.blocks, step * static_cast<double>(ahead), &predicted);
   }
   return predicted;
 }
@@ -129,26 +139,28 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
   }
   const Values predicted = Predicted();
   TrackedFrame out;
-  // After a lost frame the prediction is older: its range starts doubled once.
-  const int first = std::min(since_verified_ > 0 ? 1 : 0, options_.max_doublings);
-  for (int d = first; d <= options_.max_doublings; ++d) {
-    if (TryRange(image, d, predicted, &out)) break;
+  // The search range grows with the frames since the last verified one (the prediction is that
+  // much older), then doubles on failure.
+  const int lost = std::max(0, frame_ - history_.back().first - 1);
+  const double base = std::min<double>(1 + lost, options_.max_lost_growth);
+  for (int d = 0; d <= options_.max_doublings; ++d) {
+    if (TryRange(image, base, d, predicted, &out)) break;
   }
   if (out.verified) {
-    history_.push_back(out.estimate.mean);
+    // (the initial configuration is frame 0's guess: frame 0's estimate replaces it)
+    if (history_.back().first == frame_) history_.pop_back();
+    history_.push_back({frame_, out.estimate.mean});
     if (history_.size() > 2) history_.erase(history_.begin());
-    since_verified_ = 0;
-  } else {
-    ++since_verified_;
   }
+  ++frame_;
   return out;
 }
 
-bool Tracker::TryRange(const vision::GrayView& image, int doublings, const Values& predicted,
-                       TrackedFrame* out) {
+bool Tracker::TryRange(const vision::GrayView& image, double base, int doublings,
+                       const Values& predicted, TrackedFrame* out) {
   FrameTimes& times = out->times;
   auto start = Clock::now();
-  const double scale = std::ldexp(1.0, doublings);
+  const double scale = base * std::ldexp(1.0, doublings);
   out->doublings = doublings;
   // 1. The prior about the prediction, on the model's own configurations.
   GaussianState prior = MakePrior(
@@ -191,7 +203,13 @@ bool Tracker::TryRange(const vision::GrayView& image, int doublings, const Value
     e.noise = options_.pixel_sigma;
     if (!PredictVariance(camera_, constrained, &e)) continue;
     edges.push_back(e);
-    out->predicted.push_back({e.edge, e.a, e.b, e.sigma_a, e.sigma_b, false});
+    PredictedEdge shown;
+    shown.edge = e.edge;
+    shown.a = e.a;
+    shown.b = e.b;
+    shown.sigma_a = e.sigma_a;
+    shown.sigma_b = e.sigma_b;
+    out->predicted.push_back(shown);
   }
   auto predicted_at = Clock::now();
   times.prediction += Ms(start, predicted_at);
@@ -334,13 +352,45 @@ bool Tracker::TryRange(const vision::GrayView& image, int doublings, const Value
       *state = std::move(next);
       *sigma = next_sigma;
     }
-    double total = 0, matched = 0;
-    for (const EdgeModel& e : edges) total += e.length;
+    // The share of the visible edges' length matched, over the model and per component.
+    std::vector<double> total(graph_.blocks.size(), 0.0), matched(graph_.blocks.size(), 0.0);
+    for (const EdgeModel& e : edges) total[e.block] += e.length;
     for (int c : set) {
+      const EdgeModel& e = edges[candidates[c].edge];
       const vision::ImageSegment& s = segments[candidates[c].segment];
-      matched += Overlap(edges[candidates[c].edge], s.a.cast<double>(), s.b.cast<double>());
+      matched[e.block] += Overlap(e, s.a.cast<double>(), s.b.cast<double>());
     }
-    return std::make_pair(set, total > 0 ? matched / total : 0.0);
+    Coverage coverage;
+    double all = 0, all_matched = 0;
+    coverage.least = 1;
+    for (size_t b = 0; b < total.size(); ++b) {
+      all += total[b];
+      all_matched += matched[b];
+      if (total[b] >= options_.min_component_pixels) {
+        coverage.least = std::min(coverage.least, matched[b] / total[b]);
+      }
+    }
+    coverage.share = all > 0 ? all_matched / all : 0.0;
+    return std::make_pair(set, coverage);
+  };
+
+  // How far the matches pin every component down: its posterior standard deviation over the
+  // prediction's (constraints fused), in its worst direction (the largest generalised
+  // eigenvalue of the two covariances; 1: the matches taught nothing about it, as for a lid
+  // whose only matched edge is its hinge).
+  auto spread = [&](const GaussianState& state) {
+    double worst = 0;
+    for (const Component& c : graph_.components) {
+      if (!c.rigid) continue;
+      const int o = graph_.blocks[c.block].tangent_offset;
+      const Eigen::Matrix<double, 6, 6> before = constrained.covariance.block<6, 6>(o, o);
+      const Eigen::Matrix<double, 6, 6> after = state.covariance.block<6, 6>(o, o);
+      const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> ratio(
+          after, before, Eigen::EigenvaluesOnly);
+      if (ratio.info() != Eigen::Success) return 1.0;
+      worst = std::max(worst, std::sqrt(std::max(0.0, ratio.eigenvalues().maxCoeff())));
+    }
+    return worst;
   };
 
   std::vector<int> accepted;
@@ -376,14 +426,17 @@ bool Tracker::TryRange(const vision::GrayView& image, int doublings, const Value
       // better evidence than one that does not fit.
       const auto verify_start = Clock::now();
       const double before = times.estimation;
-      auto [extended, covered] = extend(set, &state, &sigma);
+      auto [extended, coverage] = extend(set, &state, &sigma);
       times.verification += Ms(verify_start, Clock::now()) - (times.estimation - before);
       // Verified: the set covers enough of the visible edges, with matches to spare beyond the
       // model's degrees of freedom (a few matches fit a wrong pose as well as the right one).
-      if (covered >= options_.verify_share &&
+      out->spread = spread(state);
+      out->component_share = coverage.least;
+      if (coverage.share >= options_.verify_share &&
+          coverage.least >= options_.verify_component_share && out->spread <= options_.max_spread &&
           static_cast<int>(extended.size()) >= needed + options_.spare_matches) {
         accepted = std::move(extended);
-        share = covered;
+        share = coverage.share;
         break;
       }
     }
@@ -395,7 +448,12 @@ bool Tracker::TryRange(const vision::GrayView& image, int doublings, const Value
   searched = Clock::now();
   times.search += Ms(detected, searched) - search_estimation;
   if (accepted.empty()) return false;
-  for (int c : accepted) out->predicted[candidates[c].edge].matched = true;
+  for (int c : accepted) {
+    PredictedEdge& e = out->predicted[candidates[c].edge];
+    e.matched = true;
+    e.segment_a = segments[candidates[c].segment].a.cast<double>();
+    e.segment_b = segments[candidates[c].segment].b.cast<double>();
+  }
   out->matched_share = share;
   out->matches = static_cast<int>(accepted.size());
   out->residual_sigma = sigma;

@@ -53,16 +53,25 @@ namespace cfuse::track {
 struct TrackerOptions {
   int max_branches = 5;                // match sets tried per search range
   int max_doublings = 2;               // of the search range, before a frame is lost
+  int max_extrapolation = 4;           // frames the velocity is carried on past the last verified
+  double max_lost_growth = 4;          // of the search range after lost frames (1 + frames lost)
   double pixel_sigma = 1.0;            // px: a segment end's error across its line
   double rotation_range = 0.05;        // rad: each component's prior about the prediction
   double translation_range = 0.02;     // m
   double joint_rotation_range = 0.05;  // rad: a component placed by a joint
   double verify_share = 0.3;           // of the visible predicted edge length, matched
-  int spare_matches = 2;               // matches beyond the DOF's (DOF / 2) a verified frame has
-  double min_probability = 0.02;       // a candidate below is no candidate
-  double accept_confidence = 0.999;    // of the residual's chi-square test
-  double min_edge_pixels = 12;         // predicted edges shorter than this are not matched
-  bool region_of_interest = true;      // detect segments only where the edges can be
+  // ... and of each component's in view (predicted edges of `min_component_pixels` or more):
+  // a part whose pose comes from the prior alone, or from a few stray matches, is not verified.
+  double verify_component_share = 0.2;
+  double min_component_pixels = 40;
+  // ... and every component pinned down by the matches: its posterior standard deviation at
+  // most this share of the prediction's in every direction.
+  double max_spread = 0.9;
+  int spare_matches = 2;             // matches beyond the DOF's (DOF / 2) a verified frame has
+  double min_probability = 0.02;     // a candidate below is no candidate
+  double accept_confidence = 0.999;  // of the residual's chi-square test
+  double min_edge_pixels = 12;       // predicted edges shorter than this are not matched
+  bool region_of_interest = true;    // detect segments only where the edges can be
   // Which edges are matched (vision/model_edges.h): those of faces turned at least 80 degrees
   // from edge-on and 6 px across or more, that no other part hides. A thin plate's rim or a
   // face seen nearly edge-on puts its edges within a pixel or two of each other, and a segment
@@ -84,6 +93,9 @@ struct PredictedEdge {
   Eigen::Vector2d a, b;
   double sigma_a = 0, sigma_b = 0;
   bool matched = false;
+  Eigen::Vector2d segment_a = Eigen::Vector2d::Zero(),
+                  segment_b =
+                      Eigen::Vector2d::Zero();  // the image segment matched to it (when matched)
 };
 
 struct TrackedFrame {
@@ -92,7 +104,12 @@ struct TrackedFrame {
   int branches = 0;   // match sets tried
   int matches = 0;    // in the accepted (extended) set
   double matched_share = 0;
-  double residual_sigma = 0;             // px, RMS of the accepted matches' residuals
+  double residual_sigma = 0;  // px, RMS of the accepted matches' residuals
+  // Of the last match set that passed the residual test: the largest ratio of a component's
+  // posterior standard deviation to the prediction's (1: some direction not observed), and the
+  // least matched share of a component's visible edges.
+  double spread = 1;
+  double component_share = 0;
   GaussianState estimate;                // the frame's estimate (the prediction when lost)
   std::vector<PredictedEdge> predicted;  // at the search range that decided the frame
   FrameTimes times;
@@ -119,7 +136,7 @@ class Tracker {
   struct Attempt;
 
   Values Predicted() const;
-  bool TryRange(const vision::GrayView& image, int doublings, const Values& predicted,
+  bool TryRange(const vision::GrayView& image, double base, int doublings, const Values& predicted,
                 TrackedFrame* out);
 
   const ConstraintGraph& graph_;
@@ -128,9 +145,9 @@ class Tracker {
   std::vector<vision::ModelEdge> edges_;
   std::vector<Factor> constraints_;
   int dof_ = 6;
-  // The last two verified frames' configurations, newest last, and frames since the newest.
-  std::vector<Values> history_;
-  int since_verified_ = 0;
+  // The last two verified frames' indices and configurations, newest last.
+  std::vector<std::pair<int, Values>> history_;
+  int frame_ = 0;  // the index of the next frame
 };
 
 }  // namespace cfuse::track
