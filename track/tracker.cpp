@@ -305,28 +305,35 @@ bool Tracker::TryRange(const vision::GrayView& image, double base, int doublings
       return std::includes(with.begin(), with.end(), r.begin(), r.end());
     });
   };
+  // The edges as `state` predicts them: each visible part moved onto the line through its
+  // projected model points, with the variances of that state.
+  auto reproject = [&](const GaussianState& state, std::vector<EdgeModel>* moved) {
+    for (EdgeModel& e : *moved) {
+      const Rigid3d& pose = state.mean.poses[graph_.blocks[e.block].index];
+      const Eigen::Vector2d a = camera_.Project<double>(pose * e.A);
+      const Eigen::Vector2d b = camera_.Project<double>(pose * e.B);
+      if (!a.allFinite() || !b.allFinite() || (b - a).norm() == 0) continue;
+      const Eigen::Vector2d dir = (b - a).normalized();
+      const Eigen::Vector2d from = a + dir * dir.dot(e.a - a);
+      const Eigen::Vector2d to = a + dir * dir.dot(e.b - a);
+      if ((to - from).norm() == 0) continue;
+      e.a = from;
+      e.b = to;
+      e.length = (e.b - e.a).norm();
+      e.dir = (e.b - e.a) / e.length;
+      e.mid = 0.5 * (e.a + e.b);
+      e.orientation = std::atan2(e.dir.y(), e.dir.x());
+      PredictVariance(camera_, state, &e);
+    }
+  };
+
   // An accepted set extended, round by round, with every match the tightened prediction
   // supports (probability above one half), each round solved again; the set that explains the
   // most and still passes, and the share of the visible edges' length it covers.
   auto extend = [&](std::vector<int> set, GaussianState* state, double* sigma) {
     for (int round = 0; round < 3; ++round) {
       std::vector<EdgeModel> tight = edges;
-      for (EdgeModel& e : tight) {
-        const Rigid3d& pose = state->mean.poses[graph_.blocks[e.block].index];
-        const Eigen::Vector2d a = camera_.Project<double>(pose * e.A);
-        const Eigen::Vector2d b = camera_.Project<double>(pose * e.B);
-        if (!a.allFinite() || !b.allFinite() || (b - a).norm() == 0) continue;
-        // The visible part: the predicted ends moved onto the estimated line.
-        const Eigen::Vector2d dir = (b - a).normalized();
-        e.a = a + dir * dir.dot(e.a - a);
-        e.b = a + dir * dir.dot(e.b - a);
-        e.length = (e.b - e.a).norm();
-        if (e.length == 0) continue;
-        e.dir = (e.b - e.a) / e.length;
-        e.mid = 0.5 * (e.a + e.b);
-        e.orientation = std::atan2(e.dir.y(), e.dir.x());
-        PredictVariance(camera_, *state, &e);
-      }
+      reproject(*state, &tight);
       std::vector<bool> edge_used(edges.size(), false), segment_used(segments.size(), false);
       for (int c : set) edge_used[candidates[c].edge] = segment_used[candidates[c].segment] = true;
       std::vector<std::pair<double, int>> supported;
@@ -393,71 +400,102 @@ bool Tracker::TryRange(const vision::GrayView& image, double base, int doublings
     return worst;
   };
 
-  std::vector<int> accepted;
-  GaussianState state;
-  double sigma = 0, share = 0;
-  double search_estimation = 0;  // the solves' time within the search, counted as estimation
-  auto searched = Clock::now();
-  for (int branch = 0; branch < options_.max_branches && accepted.empty(); ++branch) {
-    const auto branch_start = Clock::now();
-    const double estimation_before = times.estimation;
-    std::vector<int> order(candidates.size());
-    for (size_t c = 0; c < order.size(); ++c) order[c] = static_cast<int>(c);
-    std::stable_sort(order.begin(), order.end(),
-                     [&](int a, int b) { return probability[a] > probability[b]; });
+  // The verified set that explains the most, of those tried.
+  struct Verified {
+    std::vector<int> set;
+    GaussianState state;
+    double sigma = 0, share = 0, least = 0, spread = 0;
+  };
+  std::optional<Verified> best;
+  const double estimation_before = times.estimation, verification_before = times.verification;
+  for (int branch = 0; branch < options_.max_branches; ++branch) {
+    // The set, best first: each match taken tightens the prediction for the next (it is fused
+    // into a copy of the prior and the edges re-predicted), so that the next is the most
+    // probable given those before it (Hel-Or & Werman's interpretation tree, one path down
+    // it). The first pick, and the order at the prediction's own range, are Lowe's.
     std::vector<int> set;
     std::vector<bool> edge_used(edges.size(), false), segment_used(segments.size(), false);
+    GaussianState given = constrained;
+    std::vector<double> conditional = probability;
     double product = 1;
-    for (int c : order) {
-      const Candidate& k = candidates[c];
-      if (edge_used[k.edge] || segment_used[k.segment]) continue;
-      if (static_cast<int>(set.size()) >= needed && product * probability[c] < 0.9) break;
-      if (completes_rejected(set, c)) continue;
-      set.push_back(c);
+    for (;;) {
+      int best = -1;
+      for (size_t c = 0; c < candidates.size(); ++c) {
+        const Candidate& k = candidates[c];
+        if (edge_used[k.edge] || segment_used[k.segment]) continue;
+        if (best >= 0 && conditional[c] <= conditional[best]) continue;
+        if (completes_rejected(set, static_cast<int>(c))) continue;
+        best = static_cast<int>(c);
+      }
+      if (best < 0 || conditional[best] < options_.min_probability) break;
+      if (static_cast<int>(set.size()) >= needed && product * conditional[best] < 0.9) break;
+      const Candidate& k = candidates[best];
+      set.push_back(best);
       edge_used[k.edge] = segment_used[k.segment] = true;
-      product *= probability[c];
+      product *= conditional[best];
+      if (!options_.conditional_sets) continue;
+      const vision::ImageSegment& s = segments[k.segment];
+      Fuse(SegmentFactor(camera_, edges[k.edge], s.a.cast<double>(), s.b.cast<double>()), &given);
+      std::vector<EdgeModel> now = edges;
+      reproject(given, &now);
+      for (size_t c = 0; c < candidates.size(); ++c) {
+        if (edge_used[candidates[c].edge] || segment_used[candidates[c].segment]) continue;
+        const vision::ImageSegment& t = segments[candidates[c].segment];
+        // (times what rejected sets took off it)
+        conditional[c] = MatchProbability(now[candidates[c].edge], t.a.cast<double>(),
+                                          t.b.cast<double>(), background, gate) *
+                         probability[c] / candidates[c].probability;
+      }
     }
     if (static_cast<int>(set.size()) < needed) break;
     ++out->branches;
-    bool ok = solve(set, &state, &sigma);
-    search_estimation += times.estimation - estimation_before;
-    if (ok) {
+    GaussianState trial;
+    double trial_sigma = 0;
+    if (solve(set, &trial, &trial_sigma)) {
       // 5. Extended and verified: a set that fits but explains too little of the model is no
       // better evidence than one that does not fit.
       const auto verify_start = Clock::now();
       const double before = times.estimation;
-      auto [extended, coverage] = extend(set, &state, &sigma);
+      auto [extended, coverage] = extend(set, &trial, &trial_sigma);
+      const double trial_spread = spread(trial);
       times.verification += Ms(verify_start, Clock::now()) - (times.estimation - before);
-      // Verified: the set covers enough of the visible edges, with matches to spare beyond the
-      // model's degrees of freedom (a few matches fit a wrong pose as well as the right one).
-      out->spread = spread(state);
+      out->spread = trial_spread;
       out->component_share = coverage.least;
-      if (coverage.share >= options_.verify_share &&
-          coverage.least >= options_.verify_component_share && out->spread <= options_.max_spread &&
-          static_cast<int>(extended.size()) >= needed + options_.spare_matches) {
-        accepted = std::move(extended);
-        share = coverage.share;
-        break;
+      // Verified: the set covers enough of the visible edges, and of each part in view, pins
+      // every part down, and has matches to spare beyond the model's degrees of freedom (a few
+      // matches fit a wrong pose as well as the right one).
+      const bool verified = coverage.share >= options_.verify_share &&
+                            coverage.least >= options_.verify_component_share &&
+                            trial_spread <= options_.max_spread &&
+                            static_cast<int>(extended.size()) >= needed + options_.spare_matches;
+      if (verified && (!best || coverage.share > best->share)) {
+        best = Verified{std::move(extended), std::move(trial), trial_sigma,
+                        coverage.share,      coverage.least,   trial_spread};
       }
+      // A set that explains most of the model ends the search; one that explains little may
+      // be a wrong pose that happens to fit a few edges: the other branches are tried too,
+      // and the best verified set wins.
+      if (verified && coverage.share >= options_.confident_share) break;
     }
     for (int c : set) probability[c] *= 1 - 1.0 / static_cast<double>(set.size());
     std::sort(set.begin(), set.end());
     rejected.push_back(set);
-    (void)branch_start;
   }
-  searched = Clock::now();
-  times.search += Ms(detected, searched) - search_estimation;
-  if (accepted.empty()) return false;
-  for (int c : accepted) {
+  times.search += Ms(detected, Clock::now()) - (times.estimation - estimation_before) -
+                  (times.verification - verification_before);
+  if (!best) return false;
+  for (int c : best->set) {
     PredictedEdge& e = out->predicted[candidates[c].edge];
     e.matched = true;
     e.segment_a = segments[candidates[c].segment].a.cast<double>();
     e.segment_b = segments[candidates[c].segment].b.cast<double>();
   }
-  out->matched_share = share;
-  out->matches = static_cast<int>(accepted.size());
-  out->residual_sigma = sigma;
-  out->estimate = std::move(state);
+  out->matched_share = best->share;
+  out->component_share = best->least;
+  out->spread = best->spread;
+  out->matches = static_cast<int>(best->set.size());
+  out->residual_sigma = best->sigma;
+  out->estimate = std::move(best->state);
   out->verified = true;
   return true;
 }

@@ -55,11 +55,12 @@ struct TrackerOptions {
   int max_doublings = 2;               // of the search range, before a frame is lost
   int max_extrapolation = 4;           // frames the velocity is carried on past the last verified
   double max_lost_growth = 4;          // of the search range after lost frames (1 + frames lost)
-  double pixel_sigma = 1.0;            // px: a segment end's error across its line
+  double pixel_sigma = 0.5;            // px: a segment end's error across its line
   double rotation_range = 0.05;        // rad: each component's prior about the prediction
   double translation_range = 0.02;     // m
   double joint_rotation_range = 0.05;  // rad: a component placed by a joint
   double verify_share = 0.3;           // of the visible predicted edge length, matched
+  double confident_share = 0.6;        // a verified set this good ends the search at once
   // ... and of each component's in view (predicted edges of `min_component_pixels` or more):
   // a part whose pose comes from the prior alone, or from a few stray matches, is not verified.
   double verify_component_share = 0.2;
@@ -67,8 +68,10 @@ struct TrackerOptions {
   // ... and every component pinned down by the matches: its posterior standard deviation at
   // most this share of the prediction's in every direction.
   double max_spread = 0.9;
-  int spare_matches = 2;             // matches beyond the DOF's (DOF / 2) a verified frame has
-  double min_probability = 0.02;     // a candidate below is no candidate
+  int spare_matches = 2;          // matches beyond the DOF's (DOF / 2) a verified frame has
+  double min_probability = 0.02;  // a candidate below is no candidate
+  // Match sets built one match at a time, each fused before the next is chosen (tracker.cpp).
+  bool conditional_sets = true;
   double accept_confidence = 0.999;  // of the residual's chi-square test
   double min_edge_pixels = 12;       // predicted edges shorter than this are not matched
   bool region_of_interest = true;    // detect segments only where the edges can be

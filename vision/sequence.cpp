@@ -1,11 +1,27 @@
 #include "vision/sequence.h"
 
+#include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
 #include "constraints/forward_kinematics.h"
 
 namespace cfuse::vision {
+
+namespace {
+
+// The first rigid component that is no joint's child, or -1.
+int RootComponent(const ConstraintGraph& graph) {
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (!graph.components[c].rigid) continue;
+    bool child = false;
+    for (const Joint& j : graph.joints) child = child || j.child == static_cast<int>(c);
+    if (!child) return static_cast<int>(c);
+  }
+  return -1;
+}
+
+}  // namespace
 
 Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, int i) {
   std::vector<JointValue> given;
@@ -17,14 +33,7 @@ Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, int 
         {name, wave.first + wave.second * std::sin(2 * M_PI * i / spec.joint_period), {}});
   }
   Values values = ForwardKinematics(graph, CompleteJointValues(graph, given));
-  // The root: the first rigid component that is no joint's child.
-  int root = -1;
-  for (size_t c = 0; c < graph.components.size() && root < 0; ++c) {
-    if (!graph.components[c].rigid) continue;
-    bool child = false;
-    for (const Joint& j : graph.joints) child = child || j.child == static_cast<int>(c);
-    if (!child) root = static_cast<int>(c);
-  }
+  const int root = RootComponent(graph);
   if (root < 0) throw std::invalid_argument("the model has no rigid root component");
   const double t = static_cast<double>(i);
   const Eigen::Vector3d turn = spec.spin * t;
@@ -53,6 +62,69 @@ Rigid3d LookAt(const Eigen::Vector3d& target, double azimuth, double elevation, 
   model_from_camera << x, y, z;
   const Eigen::Matrix3d camera_from_model = model_from_camera.transpose();
   return Rigid3d(camera_from_model, -(camera_from_model * eye));
+}
+
+std::vector<std::string> StandardSequenceNames() {
+  return {"steady", "fast", "occluded", "clutter", "jump"};
+}
+
+Camera StandardCamera() {
+  Camera camera;
+  camera.fx = camera.fy = 800;
+  camera.cx = 320;
+  camera.cy = 240;
+  camera.width = 640;
+  camera.height = 480;
+  return camera;
+}
+
+SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& name, int frames,
+                              unsigned seed) {
+  const std::vector<std::string> names = StandardSequenceNames();
+  if (std::find(names.begin(), names.end(), name) == names.end()) {
+    throw std::invalid_argument("no standard sequence '" + name +
+                                "' (steady, fast, occluded, clutter or jump)");
+  }
+  const int root = RootComponent(graph);
+  if (root < 0) throw std::invalid_argument("the model has no rigid root component");
+  const Component& base = graph.components[root];
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const FeaturePoint& p : base.points) centre += p.position;
+  if (!base.points.empty()) centre /= static_cast<double>(base.points.size());
+
+  SequenceSpec spec;
+  spec.frames = frames;
+  spec.start = LookAt(centre, 0.35, 0.6, 1.3);
+  spec.velocity = Eigen::Vector3d(0.003, 0.0005, 0);
+  spec.spin = Eigen::Vector3d(0.002, 0.004, 0.002);
+  spec.wobble = Eigen::Vector3d(0, 0.03, 0.05);
+  spec.wobble_period = 50;
+  spec.joint_period = 80;
+  for (const Joint& j : graph.joints) {
+    if (!HasJointVariable(j.type)) continue;
+    if (j.mimic) continue;  // it follows its leader
+    if (j.limits) {
+      const auto [lo, hi] = *j.limits;
+      spec.joints[j.name] = {0.5 * (lo + hi), 0.4 * (hi - lo)};
+    } else {
+      spec.joints[j.name] = {j.nominal_position, 0.5};
+    }
+  }
+  spec.render.seed = seed;
+  if (name == "fast") {
+    spec.velocity.setZero();
+    spec.wobble = Eigen::Vector3d(0.3, 0.02, 0.03);
+    spec.wobble_period = 40;
+  } else if (name == "occluded") {
+    spec.occluder_width = 0.15;
+  } else if (name == "clutter") {
+    spec.render.clutter_lines = 150;
+    spec.render.clutter_blobs = 40;
+  } else if (name == "jump") {
+    spec.jump = Eigen::Vector3d(0.054, -0.027, 0);
+    spec.jump_frame = frames / 2;
+  }
+  return spec;
 }
 
 std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Camera& camera,

@@ -1,0 +1,248 @@
+// The tracker on rendered sequences with known truth (vision/sequence.h's standard scenarios):
+// the rigid box and the hinged box, steady, fast (about 20 px a frame), half occluded, in heavy
+// clutter, and knocked further than the search range reaches (the range must double). Each
+// asserts the share of frames verified and the errors of the verified ones, over two seeds;
+// then what a tracker must never do: verify a wrong pose from a far-off start, or let a lost
+// frame corrupt the next.
+#include "track/tracker.h"
+
+#include <algorithm>
+#include <catch2/catch.hpp>
+#include <opencv2/core.hpp>
+
+#include "dsl/model_loader.h"
+#include "importers/cao.h"
+#include "interp/joint_estimates.h"
+#include "test_util.h"
+#include "track/overlay.h"
+#include "vision/sequence.h"
+
+namespace cfuse::track {
+namespace {
+
+vision::GrayView View(const vision::Rendering& r) {
+  return {r.pixels.data(), r.width, r.height, r.width};
+}
+
+struct Errors {
+  int frames = 0, verified = 0;
+  std::vector<double> translation_mm, rotation_deg, joint_deg;  // of the verified frames
+  std::vector<TrackedFrame> track;
+
+  static double Quantile(std::vector<double> v, double q) {
+    if (v.empty()) return 0;
+    std::sort(v.begin(), v.end());
+    return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1))];
+  }
+};
+
+// The root's (component 0's) error, and the first joint's, on every verified frame.
+Errors Run(const ConstraintGraph& graph, const std::vector<vision::SequenceFrame>& frames,
+           const Values& initial, TrackerOptions options = {}) {
+  Tracker tracker(graph, vision::StandardCamera(), initial, options);
+  Errors out;
+  for (const vision::SequenceFrame& frame : frames) {
+    TrackedFrame f = tracker.Track(View(frame.rendering));
+    ++out.frames;
+    if (f.verified) {
+      ++out.verified;
+      const Rigid3d& estimate = f.estimate.mean.poses[0];
+      const Rigid3d& truth = frame.truth.poses[0];
+      out.translation_mm.push_back(1000 * (estimate.translation - truth.translation).norm());
+      out.rotation_deg.push_back(estimate.rotation.angularDistance(truth.rotation) * 180 / M_PI);
+      if (!graph.joints.empty()) {
+        out.joint_deg.push_back(
+            std::abs(JointValues(graph, f.estimate.mean)[0] - JointValues(graph, frame.truth)[0]) *
+            180 / M_PI);
+      }
+    }
+    out.track.push_back(std::move(f));
+  }
+  return out;
+}
+
+ConstraintGraph HingedBox() {
+  return dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+}
+ConstraintGraph RigidBox() {
+  return importers::ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+}
+
+// The median image motion of the root's corners between consecutive frames (px).
+double MedianMotion(const ConstraintGraph& graph,
+                    const std::vector<vision::SequenceFrame>& frames) {
+  const Camera camera = vision::StandardCamera();
+  std::vector<double> motion;
+  for (size_t i = 1; i < frames.size(); ++i) {
+    for (const FeaturePoint& p : graph.components[0].points) {
+      motion.push_back((camera.Project<double>(frames[i].truth.poses[0] * p.position) -
+                        camera.Project<double>(frames[i - 1].truth.poses[0] * p.position))
+                           .norm());
+    }
+  }
+  return Errors::Quantile(motion, 0.5);
+}
+
+struct Bar {
+  const char* scenario;
+  double verified;      // share of frames, at least
+  double median_mm;     // translation error, at most
+  double p90_mm;        // 90th percentile
+  double median_joint;  // degrees
+};
+
+void CheckScenario(const ConstraintGraph& graph, const Bar& bar, int frames = 40) {
+  for (unsigned seed : {1u, 2u}) {
+    CAPTURE(bar.scenario, seed);
+    const vision::SequenceSpec spec = vision::StandardSequence(graph, bar.scenario, frames, seed);
+    const std::vector<vision::SequenceFrame> sequence =
+        vision::RenderSequence(graph, vision::StandardCamera(), spec);
+    const Errors e = Run(graph, sequence, sequence[0].truth);
+    CHECK(e.verified >= bar.verified * e.frames);
+    CHECK(Errors::Quantile(e.translation_mm, 0.5) <= bar.median_mm);
+    CHECK(Errors::Quantile(e.translation_mm, 0.9) <= bar.p90_mm);
+    CHECK(Errors::Quantile(e.rotation_deg, 0.5) <= 1.0);
+    if (!graph.joints.empty()) CHECK(Errors::Quantile(e.joint_deg, 0.5) <= bar.median_joint);
+    if (std::string(bar.scenario) == "fast") CHECK(MedianMotion(graph, sequence) >= 15);
+  }
+}
+
+TEST_CASE("tracker: the rigid box, steady and fast, to a fraction of a millimetre", "[tracker]") {
+  const ConstraintGraph graph = RigidBox();
+  CheckScenario(graph, {"steady", 1.0, 0.5, 1.0, 0});
+  CheckScenario(graph, {"fast", 0.95, 0.5, 3.0, 0});
+}
+
+TEST_CASE("tracker: the hinged box opening and closing while it moves (7 DOF)", "[tracker]") {
+  CheckScenario(HingedBox(), {"steady", 1.0, 3.0, 5.0, 1.5});
+}
+
+TEST_CASE("tracker: the hinged box moving fast (median motion over 15 px a frame)", "[tracker]") {
+  CheckScenario(HingedBox(), {"fast", 0.95, 3.0, 8.0, 1.5});
+}
+
+TEST_CASE("tracker: the hinged box behind a sweeping occluder", "[tracker]") {
+  CheckScenario(HingedBox(), {"occluded", 0.9, 3.0, 10.0, 2.0});
+}
+
+TEST_CASE("tracker: the hinged box in heavy clutter", "[tracker]") {
+  CheckScenario(HingedBox(), {"clutter", 0.95, 3.0, 5.0, 1.5});
+}
+
+TEST_CASE("tracker: a knock the prediction cannot foresee", "[tracker]") {
+  CheckScenario(RigidBox(), {"jump", 0.95, 0.5, 3.0, 0});
+}
+
+TEST_CASE("tracker: a knock beyond the search range is found by doubling it", "[tracker]") {
+  const ConstraintGraph graph = HingedBox();
+  CheckScenario(graph, {"jump", 0.95, 3.0, 8.0, 1.5});
+  const vision::SequenceSpec spec = vision::StandardSequence(graph, "jump", 40, 1);
+  const std::vector<vision::SequenceFrame> sequence =
+      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const Errors e = Run(graph, sequence, sequence[0].truth);
+  // At the knock, the range doubled (within at most two frames the track is back).
+  const auto& knocked = e.track[spec.jump_frame];
+  CHECK(knocked.doublings >= 1);
+  CHECK((knocked.verified || e.track[spec.jump_frame + 1].verified ||
+         e.track[spec.jump_frame + 2].verified));
+  // Without doubling, the knock loses the object.
+  TrackerOptions no_doubling;
+  no_doubling.max_doublings = 0;
+  Tracker tracker(graph, vision::StandardCamera(), sequence[0].truth, no_doubling);
+  bool lost = false;
+  for (int i = 0; i <= spec.jump_frame; ++i) {
+    lost = !tracker.Track(View(sequence[i].rendering)).verified;
+  }
+  CHECK(lost);
+}
+
+TEST_CASE("tracker: a far-off start is lost, never verified as a wrong pose", "[tracker]") {
+  const ConstraintGraph graph = HingedBox();
+  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 20, 3);
+  const std::vector<vision::SequenceFrame> sequence =
+      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  for (const Eigen::Vector3d& offset :
+       {Eigen::Vector3d(0.3, 0, 0), Eigen::Vector3d(0, -0.25, 0), Eigen::Vector3d(0, 0, 0.8)}) {
+    CAPTURE(offset.transpose());
+    Values initial = sequence[0].truth;
+    for (Rigid3d& pose : initial.poses) pose.translation += offset;
+    const Errors e = Run(graph, sequence, initial);
+    CHECK(e.track[0].verified == false);
+    // Whatever it verifies later is right.
+    for (double t : e.translation_mm) CHECK(t <= 20);
+  }
+}
+
+TEST_CASE("tracker: a lost frame does not corrupt the next", "[tracker]") {
+  const ConstraintGraph graph = HingedBox();
+  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 30, 4);
+  std::vector<vision::SequenceFrame> sequence =
+      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  // Frames 10 to 12 blank: nothing to match.
+  for (int i = 10; i <= 12; ++i) {
+    std::fill(sequence[i].rendering.pixels.begin(), sequence[i].rendering.pixels.end(), 90);
+  }
+  const Errors e = Run(graph, sequence, sequence[0].truth);
+  for (int i = 10; i <= 12; ++i) CHECK_FALSE(e.track[i].verified);
+  // Each lost frame's estimate is the prediction from the last verified frame, and the track
+  // resumes at once.
+  for (int i = 13; i < 30; ++i) {
+    CAPTURE(i);
+    CHECK(e.track[i].verified);
+    CHECK((e.track[i].estimate.mean.poses[0].translation - sequence[i].truth.poses[0].translation)
+              .norm() <= 0.01);
+  }
+}
+
+TEST_CASE("tracker: bad input is refused with a reason", "[tracker]") {
+  const ConstraintGraph graph = HingedBox();
+  Camera no_size = vision::StandardCamera();
+  no_size.width = no_size.height = 0;
+  const Values initial =
+      vision::SequencePose(graph, vision::StandardSequence(graph, "steady", 2), 0);
+  CHECK_THROWS_WITH(Tracker(graph, no_size, initial), Catch::Contains("no image size"));
+  Tracker tracker(graph, vision::StandardCamera(), initial);
+  std::vector<std::uint8_t> small(320 * 240, 0);
+  CHECK_THROWS_WITH(tracker.Track({small.data(), 320, 240, 320}),
+                    Catch::Contains("320 x 240") && Catch::Contains("640 x 480"));
+}
+
+TEST_CASE("tracker: overlays draw the model yellow when verified and red when lost", "[tracker]") {
+  const ConstraintGraph graph = HingedBox();
+  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 2, 1);
+  std::vector<vision::SequenceFrame> sequence =
+      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  Tracker tracker(graph, vision::StandardCamera(), sequence[0].truth);
+  // Pixels of a colour, anti-aliasing allowed for: yellow is strong red and green without
+  // blue, red is strong red alone (BGR).
+  auto count = [](const cv::Mat3b& image, bool yellow) {
+    int n = 0;
+    for (int v = 0; v < image.rows; ++v) {
+      for (int u = 0; u < image.cols; ++u) {
+        const cv::Vec3b& p = image(v, u);
+        const bool strong_red = p[2] > 180 && p[0] < 110;
+        n += strong_red && (yellow ? p[1] > 150 : p[1] < 80);
+      }
+    }
+    return n;
+  };
+  const TrackedFrame good = tracker.Track(View(sequence[0].rendering));
+  REQUIRE(good.verified);
+  const cv::Mat3b drawn =
+      DrawOverlay(View(sequence[0].rendering), graph, vision::StandardCamera(), good);
+  CHECK(drawn.cols == 640);
+  CHECK(drawn.rows == 480);
+  CHECK(count(drawn, true) > 500);
+  CHECK(count(drawn, false) == 0);
+
+  std::fill(sequence[1].rendering.pixels.begin(), sequence[1].rendering.pixels.end(), 90);
+  const TrackedFrame lost = tracker.Track(View(sequence[1].rendering));
+  REQUIRE_FALSE(lost.verified);
+  const cv::Mat3b red =
+      DrawOverlay(View(sequence[1].rendering), graph, vision::StandardCamera(), lost);
+  CHECK(count(red, false) > 500);
+  CHECK(count(red, true) == 0);
+}
+
+}  // namespace
+}  // namespace cfuse::track
