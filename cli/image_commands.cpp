@@ -15,82 +15,27 @@
 #include <sstream>
 
 #include "cli/command_support.h"
+#include "cli/image_support.h"
+#include "cli/results.h"
+#include "cli/track_command.h"
 #include "dsl/pose_reader.h"
 #include "interp/solve.h"
 #include "kernel/error.h"
 #include "vision/model_edges.h"
 #include "vision/render.h"
 #include "vision/segments.h"
+#include "vision/sequence.h"
 
 namespace cfuse::cli {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr std::uintmax_t kMaxImageBytes = 512ull << 20;
-
 // Three decimals: a thousandth of a pixel is far below any detector's precision.
 double Round3(double x) { return std::round(x * 1000) / 1000; }
 
 nlohmann::json SegmentJson(double x1, double y1, double x2, double y2) {
   return nlohmann::json::array({Round3(x1), Round3(y1), Round3(x2), Round3(y2)});
-}
-
-// An image as 8-bit grey (colour converted), or an InputError at the file saying why not.
-cv::Mat ReadGrayImage(const std::string& path) {
-  const SourceLocation where(path);
-  std::error_code ec;
-  if (!fs::exists(path, ec)) throw InputError(where, "cannot open: no such file");
-  if (fs::is_directory(path, ec)) throw InputError(where, "cannot open: it is a directory");
-  const std::uintmax_t size = fs::file_size(path, ec);
-  if (ec) throw InputError(where, "cannot open: " + ec.message());
-  if (size == 0) throw InputError(where, "the file is empty");
-  if (size > kMaxImageBytes) {
-    throw InputError(where, fmt::format("the file is larger than the {} MiB limit for images",
-                                        kMaxImageBytes >> 20));
-  }
-  cv::Mat image;
-  try {
-    image = cv::imread(path, cv::IMREAD_UNCHANGED);
-  } catch (const cv::Exception& e) {
-    throw InputError(where, fmt::format("cannot read the image: {}", e.msg));
-  }
-  if (image.empty()) {
-    throw InputError(where,
-                     "cannot read the image: not in a format OpenCV reads (PNG, JPEG, TIFF, BMP, "
-                     "PNM, ...) or damaged");
-  }
-  if (image.depth() != CV_8U) {
-    const char* depth = image.depth() == CV_16U   ? "16-bit"
-                        : image.depth() == CV_32F ? "float"
-                                                  : "non-8-bit";
-    throw InputError(where, fmt::format("the image has {} samples: give an 8-bit grey or colour "
-                                        "image",
-                                        depth));
-  }
-  cv::Mat gray;
-  switch (image.channels()) {
-    case 1:
-      gray = image;
-      break;
-    case 3:
-      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
-      break;
-    case 4:
-      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
-      break;
-    default:
-      throw InputError(where, fmt::format("the image has {} channels: give a grey (1), colour "
-                                          "(3) or colour-and-alpha (4) image",
-                                          image.channels()));
-  }
-  return gray;
-}
-
-std::string PngBytes(const cv::Mat& image) {
-  std::vector<std::uint8_t> bytes;
-  cv::imencode(".png", image, bytes);
-  return std::string(bytes.begin(), bytes.end());
 }
 
 // "x,y,w,h": four whole numbers, the region inside the image.
@@ -125,31 +70,6 @@ vision::PixelRect ParseRoi(const std::string& text, const std::string& image, in
   }
   return {static_cast<int>(v[0]), static_cast<int>(v[1]), static_cast<int>(v[2]),
           static_cast<int>(v[3])};
-}
-
-// The model at the poses of a results-format file: every rigid component placed there
-// (itself, or through a frame on it), or an InputError naming the first one that is not.
-Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
-  const PoseSet poses = dsl::ReadPoses(pose_file);
-  Values values = graph.nominal;
-  ApplyGuess(graph, poses, &values);
-  std::set<int> placed;
-  for (const NamedPose& p : poses.components) {
-    if (const int c = graph.FindComponent(p.name); c >= 0) {
-      placed.insert(c);
-    } else if (const auto frame = graph.FindFrame(p.name)) {
-      placed.insert(frame->first);
-    }
-  }
-  for (size_t c = 0; c < graph.components.size(); ++c) {
-    if (graph.components[c].rigid && !placed.count(static_cast<int>(c))) {
-      throw InputError(SourceLocation(pose_file),
-                       fmt::format("no pose for component '{}' of model '{}' under "
-                                   "'components'",
-                                   graph.components[c].name, graph.name));
-    }
-  }
-  return values;
 }
 
 // JSON indented, but each array of numbers (a segment) on one line.
@@ -279,10 +199,77 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
   });
 }
 
+namespace {
+
+// `cfuse render --sequence`: the frames, the true track and the first frame's poses, written
+// into a sibling directory first and renamed into place at the end.
+int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintGraph& graph,
+                          const Camera& camera, std::ostream& out) {
+  const SourceLocation where(options.output);
+  std::error_code ec;
+  if (fs::exists(options.output, ec) &&
+      !(fs::is_directory(options.output, ec) && fs::is_empty(options.output, ec))) {
+    throw InputError(where, "exists and is not an empty directory: give a new one");
+  }
+  vision::SequenceSpec spec;
+  try {
+    spec = vision::StandardSequence(graph, options.sequence, options.frames, options.seed);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(SourceLocation(options.model), e.what());
+  }
+  std::vector<vision::SequenceFrame> frames;
+  try {
+    frames = vision::RenderSequence(graph, camera, spec);
+  } catch (const std::invalid_argument& e) {
+    throw InputError(SourceLocation(options.camera), e.what());
+  }
+  const fs::path target = fs::absolute(options.output).lexically_normal();
+  const fs::path partial = target.string() + ".partial";
+  fs::remove_all(partial, ec);
+  if (!fs::create_directories(partial, ec)) {
+    throw InputError(where, "cannot create the directory: " + ec.message());
+  }
+  try {
+    std::string truth = TrackCsvHeader(graph);
+    for (size_t i = 0; i < frames.size(); ++i) {
+      const vision::Rendering& r = frames[i].rendering;
+      const std::vector<std::uint8_t> png = vision::EncodePng(r.pixels, r.width, r.height);
+      WriteFileAtomically((partial / fmt::format("frame_{:05d}.png", i)).string(),
+                          std::string(png.begin(), png.end()));
+      truth += TrackCsvRow(graph, static_cast<int>(i), 0, true, frames[i].truth);
+    }
+    WriteFileAtomically((partial / "truth.csv").string(), truth);
+    WriteFileAtomically((partial / "init.json").string(),
+                        PosesJson(graph, frames.front().truth).dump(1) + "\n");
+    fs::remove(target, ec);  // an empty directory, or nothing
+    fs::rename(partial, target);
+  } catch (...) {
+    fs::remove_all(partial, ec);
+    throw;
+  }
+  out << fmt::format(
+      "rendered '{}', sequence '{}': {} frames of {} x {} -> {}/ (frame_NNNNN.png, truth.csv, "
+      "init.json)\n",
+      graph.name, options.sequence, frames.size(), camera.width, camera.height, options.output);
+  return 0;
+}
+
+}  // namespace
+
 int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const Camera camera = LoadAnyCamera(options.camera);
+    if (!options.sequence.empty()) {
+      if (!options.pose.empty()) {
+        throw InputError(SourceLocation(options.pose),
+                         "--pose and --sequence exclude each other: a sequence has its own poses");
+      }
+      return RenderSequenceCommand(options, graph, camera, out);
+    }
+    if (options.pose.empty()) {
+      throw InputError(SourceLocation(options.model), "give --pose (or --sequence NAME)");
+    }
     const Values values = PosedModel(graph, options.pose);
     vision::RenderOptions ro;
     ro.seed = options.seed;

@@ -1,7 +1,8 @@
 // The image front end's commands (docs/formats.md "Images, segments and edges"):
 //   cfuse segments IMAGE   straight segments detected in an image
 //   cfuse project MODEL    the model's visible edges at a pose, as a camera sees them
-//   cfuse render MODEL     a synthetic image of the model at a pose, with its true edges
+//   cfuse render MODEL     a synthetic image of the model at a pose, with its true edges, or a
+//                          whole tracking sequence with its true track
 // Exit statuses as for every command (commands.h).
 #pragma once
 
@@ -34,6 +35,12 @@ struct RenderCommandOptions {
   std::string model;
   std::string camera;
   std::string pose;
+  // A standard tracking sequence instead of one pose (vision/sequence.h: steady, fast,
+  // occluded, clutter or jump): `output` is then a new directory, filled with frame_NNNNN.png,
+  // truth.csv (the track format, cli/track_command.h) and init.json (frame 0's poses); the
+  // sequence's own clutter, noise and blur apply.
+  std::string sequence;
+  int frames = 60;
   std::string output;  // IMAGE.png (required)
   std::string truth;   // EDGES.json of the visible edges, optional
   unsigned seed = 1;

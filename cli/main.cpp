@@ -1,9 +1,13 @@
 // cfuse: a table of subcommands; every one is a Run*() function in commands.h.
+#include <unistd.h>
+
 #include <CLI/CLI.hpp>
+#include <cstdio>
 #include <iostream>
 
 #include "cli/commands.h"
 #include "cli/image_commands.h"
+#include "cli/track_command.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"cfuse: pose estimation and interpretation of articulated and constrained objects"};
@@ -116,9 +120,16 @@ int main(int argc, char** argv) {
   cfuse::cli::RenderCommandOptions render;
   render_cmd->add_option("MODEL", render.model, "Model file (.yaml, .urdf or .cao)")->required();
   render_cmd->add_option("--camera", render.camera, "Camera file (no distortion)")->required();
-  render_cmd->add_option("--pose", render.pose, "Poses (results format: its components)")
+  render_cmd->add_option("--pose", render.pose, "Poses (results format: its components)");
+  render_cmd->add_option("--sequence", render.sequence,
+                         "A tracking sequence instead: steady, fast, occluded, clutter or jump");
+  render_cmd->add_option("--frames", render.frames, "Frames of the sequence")
+      ->check(CLI::Range(1, 100000))
+      ->capture_default_str();
+  render_cmd
+      ->add_option("-o,--output", render.output,
+                   "PNG image to write (with --sequence: a new directory)")
       ->required();
-  render_cmd->add_option("-o,--output", render.output, "PNG image to write")->required();
   render_cmd->add_option("--truth", render.truth, "Visible edges file to write");
   render_cmd->add_option("--seed", render.seed, "Random seed of the clutter and noise");
   render_cmd->add_option("--noise", render.noise, "Noise sigma, grey levels")
@@ -128,6 +139,23 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 10000));
   render_cmd->add_option("--clutter-blobs", render.clutter_blobs, "Background blobs")
       ->check(CLI::Range(0, 10000));
+
+  CLI::App* track_cmd = app.add_subcommand(
+      "track", "Track the model through an image sequence (Lowe 1992 on constraint fusion)");
+  cfuse::cli::TrackCommandOptions track;
+  track_cmd->add_option("MODEL", track.model, "Model file (.yaml, .urdf or .cao)")->required();
+  track_cmd->add_option("--camera", track.camera, "Camera file, with the image size")->required();
+  track_cmd
+      ->add_option("--images", track.images,
+                   "The frames: a glob ('frames/*.png'), a directory or a video file")
+      ->required();
+  track_cmd->add_option("--init", track.init, "Poses at the first frame (results format)")
+      ->required();
+  track_cmd->add_option("-o,--output", track.output, "Track file, CSV (default: stdout)");
+  track_cmd->add_option("--overlay", track.overlay, "Directory for overlay frames (PNG)");
+  track_cmd->add_option("--max-branches", track.max_branches, "Match sets tried per search range")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
 
   CLI::App* demo_cmd = app.add_subcommand(
       "demo", "The built-in desk lamp: simulated with clutter and occlusion, then interpreted");
@@ -153,6 +181,10 @@ int main(int argc, char** argv) {
   if (*segments_cmd) return cfuse::cli::RunSegments(segments, std::cout, std::cerr);
   if (*project_cmd) return cfuse::cli::RunProject(project, std::cout, std::cerr);
   if (*render_cmd) return cfuse::cli::RunRender(render, std::cout, std::cerr);
+  if (*track_cmd) {
+    track.progress = isatty(fileno(stderr)) != 0;
+    return cfuse::cli::RunTrack(track, std::cout, std::cerr);
+  }
   if (*demo_cmd) return cfuse::cli::RunDemo(demo, std::cout, std::cerr);
   return 2;
 }

@@ -126,6 +126,9 @@ class Tracker {
           TrackerOptions options = {});
 
   TrackedFrame Track(const vision::GrayView& image);
+  // A frame with no image (missing or unreadable): the object moved on all the same, and the
+  // next frame predicts across the gap.
+  void Skip() { ++frame_; }
 
   // The model's degrees of freedom (each matched segment constrains 2).
   int dof() const { return dof_; }

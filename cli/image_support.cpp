@@ -1,0 +1,102 @@
+#include "cli/image_support.h"
+
+#include <fmt/format.h>
+
+#include <filesystem>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <set>
+
+#include "dsl/pose_reader.h"
+#include "interp/solve.h"
+#include "kernel/error.h"
+
+namespace cfuse::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::uintmax_t kMaxImageBytes = 512ull << 20;
+
+}  // namespace
+
+cv::Mat ReadGrayImage(const std::string& path) {
+  const SourceLocation where(path);
+  std::error_code ec;
+  if (!fs::exists(path, ec)) throw InputError(where, "cannot open: no such file");
+  if (fs::is_directory(path, ec)) throw InputError(where, "cannot open: it is a directory");
+  const std::uintmax_t size = fs::file_size(path, ec);
+  if (ec) throw InputError(where, "cannot open: " + ec.message());
+  if (size == 0) throw InputError(where, "the file is empty");
+  if (size > kMaxImageBytes) {
+    throw InputError(where, fmt::format("the file is larger than the {} MiB limit for images",
+                                        kMaxImageBytes >> 20));
+  }
+  cv::Mat image;
+  try {
+    image = cv::imread(path, cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    throw InputError(where, fmt::format("cannot read the image: {}", e.msg));
+  }
+  if (image.empty()) {
+    throw InputError(where,
+                     "cannot read the image: not in a format OpenCV reads (PNG, JPEG, TIFF, BMP, "
+                     "PNM, ...) or damaged");
+  }
+  if (image.depth() != CV_8U) {
+    const char* depth = image.depth() == CV_16U   ? "16-bit"
+                        : image.depth() == CV_32F ? "float"
+                                                  : "non-8-bit";
+    throw InputError(where, fmt::format("the image has {} samples: give an 8-bit grey or colour "
+                                        "image",
+                                        depth));
+  }
+  cv::Mat gray;
+  switch (image.channels()) {
+    case 1:
+      gray = image;
+      break;
+    case 3:
+      cv::cvtColor(image, gray, cv::COLOR_BGR2GRAY);
+      break;
+    case 4:
+      cv::cvtColor(image, gray, cv::COLOR_BGRA2GRAY);
+      break;
+    default:
+      throw InputError(where, fmt::format("the image has {} channels: give a grey (1), colour "
+                                          "(3) or colour-and-alpha (4) image",
+                                          image.channels()));
+  }
+  return gray;
+}
+
+std::string PngBytes(const cv::Mat& image) {
+  std::vector<std::uint8_t> bytes;
+  cv::imencode(".png", image, bytes);
+  return std::string(bytes.begin(), bytes.end());
+}
+
+Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
+  const PoseSet poses = dsl::ReadPoses(pose_file);
+  Values values = graph.nominal;
+  ApplyGuess(graph, poses, &values);
+  std::set<int> placed;
+  for (const NamedPose& p : poses.components) {
+    if (const int c = graph.FindComponent(p.name); c >= 0) {
+      placed.insert(c);
+    } else if (const auto frame = graph.FindFrame(p.name)) {
+      placed.insert(frame->first);
+    }
+  }
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (graph.components[c].rigid && !placed.count(static_cast<int>(c))) {
+      throw InputError(SourceLocation(pose_file),
+                       fmt::format("no pose for component '{}' of model '{}' under "
+                                   "'components'",
+                                   graph.components[c].name, graph.name));
+    }
+  }
+  return values;
+}
+
+}  // namespace cfuse::cli

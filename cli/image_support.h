@@ -1,0 +1,23 @@
+// What the image commands share (segments, project, render, track): images read as 8-bit grey
+// with errors that say why not, PNG bytes, and a model placed at the poses of a results file.
+#pragma once
+
+#include <opencv2/core.hpp>
+#include <string>
+
+#include "constraints/graph.h"
+#include "kernel/values.h"
+
+namespace cfuse::cli {
+
+// An image as 8-bit grey (colour converted), or an InputError at the file saying why not.
+cv::Mat ReadGrayImage(const std::string& path);
+
+// The PNG encoding of an image.
+std::string PngBytes(const cv::Mat& image);
+
+// The model at the poses of a results-format file: every rigid component placed there
+// (itself, or through a frame on it), or an InputError naming the first one that is not.
+Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file);
+
+}  // namespace cfuse::cli

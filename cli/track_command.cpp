@@ -1,0 +1,337 @@
+#include "cli/track_command.h"
+
+#include <fmt/format.h>
+#include <fnmatch.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <opencv2/imgproc.hpp>
+#include <opencv2/videoio.hpp>
+#include <ostream>
+#include <set>
+
+#include "cli/command_support.h"
+#include "cli/image_support.h"
+#include "interp/joint_estimates.h"
+#include "kernel/error.h"
+#include "track/overlay.h"
+#include "track/tracker.h"
+
+namespace cfuse::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+std::string Lower(std::string s) {
+  std::transform(s.begin(), s.end(), s.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return s;
+}
+
+bool HasExtension(const fs::path& path, const std::set<std::string>& extensions) {
+  return extensions.count(Lower(path.extension().string())) > 0;
+}
+
+const std::set<std::string> kImageExtensions = {".png",  ".jpg", ".jpeg", ".bmp", ".tif",
+                                                ".tiff", ".pgm", ".ppm",  ".pnm", ".webp"};
+const std::set<std::string> kVideoExtensions = {".avi", ".mp4",  ".mkv", ".mov", ".webm",
+                                                ".mpg", ".mpeg", ".m4v", ".wmv", ".ogv"};
+
+// The frames to track: image files (a glob's matches or a directory's images, sorted by name)
+// or a video. Frame i is the i-th file, or the video's i-th frame.
+class FrameSource {
+ public:
+  explicit FrameSource(const std::string& spec) : spec_(spec) {
+    const SourceLocation where(spec);
+    const fs::path path(spec);
+    std::error_code ec;
+    if (spec.find_first_of("*?[") == std::string::npos) {
+      if (fs::is_directory(path, ec)) {
+        for (const fs::directory_entry& e : fs::directory_iterator(path, ec)) {
+          if (e.is_regular_file(ec) && HasExtension(e.path(), kImageExtensions)) {
+            files_.push_back(e.path().string());
+          }
+        }
+        if (files_.empty()) {
+          throw InputError(where, "the directory holds no images (.png, .jpg, .bmp, .tif, ...)");
+        }
+      } else if (!fs::exists(path, ec)) {
+        throw InputError(where, "cannot open: no such file or directory");
+      } else if (HasExtension(path, kVideoExtensions)) {
+        if (!video_.open(spec) || !video_.isOpened()) {
+          throw InputError(where, "cannot open the video (no decoder for it, or damaged)");
+        }
+        const double count = video_.get(cv::CAP_PROP_FRAME_COUNT);
+        expected_ = count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
+        return;
+      } else {
+        files_.push_back(spec);  // one image
+      }
+    } else {
+      // A glob: wildcards in the file name only.
+      const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+      const std::string pattern = path.filename().string();
+      if (dir.string().find_first_of("*?[") != std::string::npos) {
+        throw InputError(
+            where, "wildcards are allowed in the file name only, not in '" + dir.string() + "'");
+      }
+      if (!fs::is_directory(dir, ec)) {
+        throw InputError(where, "no such directory '" + dir.string() + "'");
+      }
+      for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+        if (!e.is_regular_file(ec)) continue;
+        if (fnmatch(pattern.c_str(), e.path().filename().c_str(), 0) == 0) {
+          files_.push_back(e.path().string());
+        }
+      }
+      if (files_.empty()) throw InputError(where, "no file matches the pattern");
+    }
+    std::sort(files_.begin(), files_.end());
+    expected_ = static_cast<int>(files_.size());
+  }
+
+  // Frames expected (a video may not say: 0).
+  int expected() const { return expected_; }
+  bool is_video() const { return video_.isOpened(); }
+
+  // The next frame as 8-bit grey into `image`; false at the end. A frame that cannot be read
+  // throws InputError (the source goes on with the next).
+  bool Next(cv::Mat* image, std::string* name) {
+    const int i = next_++;
+    if (is_video()) {
+      cv::Mat frame;
+      if (!video_.read(frame) || frame.empty()) return false;
+      *name = fmt::format("{} frame {}", spec_, i);
+      if (frame.channels() == 3) {
+        cv::cvtColor(frame, *image, cv::COLOR_BGR2GRAY);
+      } else if (frame.channels() == 1 && frame.depth() == CV_8U) {
+        *image = frame;
+      } else {
+        throw InputError(
+            SourceLocation(spec_),
+            fmt::format("frame {}: {} channels, not 8-bit grey or colour", i, frame.channels()));
+      }
+      return true;
+    }
+    if (i >= static_cast<int>(files_.size())) return false;
+    *name = files_[i];
+    *image = ReadGrayImage(files_[i]);
+    return true;
+  }
+
+ private:
+  std::string spec_;
+  std::vector<std::string> files_;
+  cv::VideoCapture video_;
+  int expected_ = 0;
+  int next_ = 0;
+};
+
+// "[#####.....]  123/456 frames  1.2 ms/frame" redrawn in place.
+class ProgressBar {
+ public:
+  ProgressBar(std::ostream& err, bool enabled, int total)
+      : err_(err), enabled_(enabled), total_(total), start_(Clock::now()) {}
+  ~ProgressBar() {
+    if (shown_) err_ << "\r" << std::string(72, ' ') << "\r" << std::flush;
+  }
+  void Update(int done, double median_ms) {
+    if (!enabled_) return;
+    const auto now = Clock::now();
+    // Only for runs longer than a second, redrawn ten times a second.
+    if (now - start_ < std::chrono::seconds(1) || now - last_ < std::chrono::milliseconds(100)) {
+      return;
+    }
+    last_ = now;
+    shown_ = true;
+    constexpr int kWidth = 30;
+    const int filled = total_ > 0 ? std::min(kWidth, kWidth * done / total_) : 0;
+    err_ << "\r[" << std::string(filled, '#') << std::string(kWidth - filled, '.') << "] "
+         << (total_ > 0 ? fmt::format("{}/{} frames", done, total_)
+                        : fmt::format("{} frames", done))
+         << fmt::format("  {:.1f} ms/frame", median_ms) << std::flush;
+  }
+
+ private:
+  std::ostream& err_;
+  bool enabled_;
+  int total_;
+  Clock::time_point start_, last_;
+  bool shown_ = false;
+};
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return 0;
+  std::nth_element(v.begin(), v.begin() + static_cast<long>(v.size() / 2), v.end());
+  return v[v.size() / 2];
+}
+
+// Frame numbers as ranges: "3, 7-9, 12".
+std::string Ranges(const std::vector<int>& frames, size_t max_items = 8) {
+  std::string out;
+  size_t items = 0;
+  for (size_t i = 0; i < frames.size();) {
+    size_t j = i;
+    while (j + 1 < frames.size() && frames[j + 1] == frames[j] + 1) ++j;
+    if (items == max_items) return out + ", ...";
+    if (!out.empty()) out += ", ";
+    out += j == i ? std::to_string(frames[i]) : fmt::format("{}-{}", frames[i], frames[j]);
+    ++items;
+    i = j + 1;
+  }
+  return out;
+}
+
+}  // namespace
+
+std::string TrackCsvHeader(const ConstraintGraph& graph) {
+  std::string out = "frame,time_ms,verified";
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    for (const char* field : {"x", "y", "z", "qw", "qx", "qy", "qz"}) {
+      out += fmt::format(",{}.{}", c.name, field);
+    }
+  }
+  for (const Joint& j : graph.joints) {
+    if (HasJointVariable(j.type)) out += "," + j.name;
+  }
+  return out + "\n";
+}
+
+std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms, bool verified,
+                        const Values& values) {
+  std::string out = fmt::format("{},{:.3f},{}", frame, time_ms, verified ? 1 : 0);
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    const Rigid3d& pose = values.poses[graph.blocks[c.block].index];
+    const Eigen::Quaterniond& q = pose.rotation;
+    // Micrometres and 1e-7 of a unit quaternion: below any tracker's precision.
+    out += fmt::format(",{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f},{:.7f}", pose.translation.x(),
+                       pose.translation.y(), pose.translation.z(), q.w(), q.x(), q.y(), q.z());
+  }
+  const Eigen::VectorXd joints = JointValues(graph, values);
+  for (Eigen::Index k = 0; k < joints.size(); ++k) out += fmt::format(",{:.6f}", joints[k]);
+  return out + "\n";
+}
+
+int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    const Camera camera = LoadAnyCamera(options.camera);
+    if (camera.width <= 0 || camera.height <= 0) {
+      throw InputError(SourceLocation(options.camera),
+                       "the camera needs its image size (width and height) to track in");
+    }
+    const Values initial = PosedModel(graph, options.init);
+    if (vision::ModelEdges(graph).empty()) {
+      throw InputError(SourceLocation(options.model),
+                       fmt::format("model '{}' has no edges to track (give its components "
+                                   "edges, or faces whose sides become edges)",
+                                   graph.name));
+    }
+    FrameSource source(options.images);
+
+    track::TrackerOptions tracker_options;
+    tracker_options.max_branches = options.max_branches;
+    track::Tracker tracker(graph, camera, initial, tracker_options);
+    std::string csv = TrackCsvHeader(graph);
+    std::vector<double> ms;
+    std::vector<int> lost, unreadable;
+    std::vector<std::string> unreadable_why;
+    track::FrameTimes sum;
+    int frames = 0, verified = 0;
+    bool size_checked = false;
+    ProgressBar progress(err, options.progress, source.expected());
+    for (int frame = 0;; ++frame) {
+      cv::Mat image;
+      std::string name;
+      bool more = false;
+      try {
+        more = source.Next(&image, &name);
+      } catch (const InputError& e) {
+        err << e.what() << ": skipped, the track goes on\n";
+        unreadable.push_back(frame);
+        tracker.Skip();
+        continue;
+      }
+      if (!more) break;
+      if (image.cols != camera.width || image.rows != camera.height) {
+        const std::string why =
+            fmt::format("the image is {} x {}, the camera's ({}) {} x {}", image.cols, image.rows,
+                        options.camera, camera.width, camera.height);
+        // The first frame decides whether the camera fits the sequence; a later odd one out is
+        // skipped like an unreadable one.
+        if (!size_checked) throw InputError(SourceLocation(name), why);
+        err << InputError(SourceLocation(name), why).what() << ": skipped, the track goes on\n";
+        unreadable.push_back(frame);
+        tracker.Skip();
+        continue;
+      }
+      size_checked = true;
+      const vision::GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
+      const track::TrackedFrame f = tracker.Track(view);
+      ++frames;
+      verified += f.verified ? 1 : 0;
+      if (!f.verified) lost.push_back(frame);
+      ms.push_back(f.times.Total());
+      sum.segments += f.times.segments;
+      sum.prediction += f.times.prediction;
+      sum.search += f.times.search;
+      sum.estimation += f.times.estimation;
+      sum.verification += f.times.verification;
+      csv += TrackCsvRow(graph, frame, f.times.Total(), f.verified, f.estimate.mean);
+      if (!options.overlay.empty()) {
+        if (frames == 1) {
+          // (created with the first frame tracked: an input error before leaves nothing behind)
+          std::error_code ec;
+          fs::create_directories(options.overlay, ec);
+          if (!fs::is_directory(options.overlay, ec)) {
+            throw InputError(SourceLocation(options.overlay),
+                             "cannot create the overlay directory");
+          }
+        }
+        track::OverlayOptions overlay;
+        overlay.caption = fmt::format("frame {}  {}  {} matches  {:.1f} ms", frame,
+                                      f.verified ? "verified" : "LOST", f.matches, f.times.Total());
+        WriteFileAtomically(
+            (fs::path(options.overlay) / fmt::format("frame_{:05d}.png", frame)).string(),
+            PngBytes(track::DrawOverlay(view, graph, camera, f, overlay)));
+      }
+      progress.Update(frame + 1, Median(ms));
+    }
+    if (frames == 0 && unreadable.empty()) {
+      throw InputError(SourceLocation(options.images), "the video holds no frames");
+    }
+
+    if (options.output.empty()) {
+      out << csv;
+    } else {
+      WriteFileAtomically(options.output, csv);
+    }
+    std::ostream& report = options.output.empty() ? err : out;
+    const double n = std::max(1, frames);
+    report << fmt::format("track: '{}', {} frames: {} verified ({:.1f} %){}\n", graph.name, frames,
+                          verified, 100.0 * verified / n,
+                          lost.empty() ? "" : ", lost: " + Ranges(lost));
+    if (!ms.empty()) {
+      report << fmt::format(
+          "time per frame: median {:.2f} ms, worst {:.2f} ms (mean: segments {:.2f}, prediction "
+          "{:.2f}, search {:.2f}, estimation {:.2f}, verification {:.2f})\n",
+          Median(ms), *std::max_element(ms.begin(), ms.end()), sum.segments / n, sum.prediction / n,
+          sum.search / n, sum.estimation / n, sum.verification / n);
+    }
+    if (!options.output.empty()) report << fmt::format("track -> {}\n", options.output);
+    if (!options.overlay.empty()) report << fmt::format("overlays -> {}/\n", options.overlay);
+    if (!unreadable.empty()) {
+      err << fmt::format("cfuse track: {} frame(s) could not be read ({}), see above\n",
+                         unreadable.size(), Ranges(unreadable));
+      return 2;
+    }
+    return verified > 0 ? 0 : 1;
+  });
+}
+
+}  // namespace cfuse::cli

@@ -1,0 +1,40 @@
+// `cfuse track`: a model tracked through an image sequence (track/tracker.h), and the track
+// file it writes (docs/formats.md "Tracks"):
+//
+//   cfuse track MODEL --camera CAM --images 'frames/*.png' --init POSE.json
+//               [-o TRACK.csv] [--overlay DIR] [--max-branches N]
+//
+// --images is a glob (wildcards in the file name only), a directory (its images, sorted), or a
+// video file. A frame that cannot be read is reported and skipped, and the track goes on
+// across it; the command then exits 2 after writing everything else. Exit statuses as for every
+// command (commands.h): 1 when no frame was verified.
+#pragma once
+
+#include <iosfwd>
+#include <string>
+
+#include "constraints/graph.h"
+#include "kernel/values.h"
+
+namespace cfuse::cli {
+
+struct TrackCommandOptions {
+  std::string model;
+  std::string camera;
+  std::string images;   // glob, directory or video file
+  std::string init;     // results-format poses at the first frame
+  std::string output;   // TRACK.csv; empty: stdout (and the summary to stderr)
+  std::string overlay;  // directory for the overlay frames (created if missing)
+  int max_branches = 5;
+  bool progress = false;  // a progress bar on `err` (set when it is a terminal)
+};
+int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream& err);
+
+// The track file's header and rows: frame, time_ms, verified, then each rigid component's pose
+// in the camera frame (NAME.x, .y, .z in metres, NAME.qw, .qx, .qy, .qz), then each joint's
+// value under its name (radians or metres). `cfuse render --sequence` writes its truth so.
+std::string TrackCsvHeader(const ConstraintGraph& graph);
+std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms, bool verified,
+                        const Values& values);
+
+}  // namespace cfuse::cli

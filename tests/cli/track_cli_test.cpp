@@ -1,0 +1,256 @@
+// `cfuse track` and `cfuse render --sequence` through their Run*() functions: a rendered
+// sequence tracked from image files, a directory and a video, its track file against the true
+// one; and every kind of bad input: unreadable frames (reported, skipped, status 2 after the
+// rest is written), a camera of another size, an empty glob, a far-off start (status 1, every
+// frame lost), a bad sequence name or output directory.
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/videoio.hpp>
+#include <sstream>
+
+#include "cli/image_commands.h"
+#include "cli/track_command.h"
+#include "test_util.h"
+
+namespace cfuse::cli {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Sequence {
+  fs::path dir, camera, frames;
+  std::string model = testing::SourcePath("examples/hinged-box.yaml");
+};
+
+// The hinged box's steady sequence, 24 frames, rendered by `cfuse render --sequence`.
+Sequence MakeSequence(const std::string& name) {
+  Sequence s;
+  s.dir = fs::temp_directory_path() / ("cfuse_track_cli_test_" + name);
+  fs::remove_all(s.dir);
+  fs::create_directories(s.dir);
+  s.camera = s.dir / "camera.json";
+  std::ofstream(s.camera) << R"({"fx": 800, "fy": 800, "cx": 320, "cy": 240, "width": 640,
+                                "height": 480})";
+  s.frames = s.dir / "frames";
+  RenderCommandOptions render;
+  render.model = s.model;
+  render.camera = s.camera.string();
+  render.sequence = "steady";
+  render.frames = 24;
+  render.output = s.frames.string();
+  std::ostringstream out, err;
+  REQUIRE(RunRender(render, out, err) == 0);
+  return s;
+}
+
+std::vector<std::vector<std::string>> ReadCsv(const fs::path& path) {
+  std::ifstream in(path);
+  std::vector<std::vector<std::string>> rows;
+  for (std::string line; std::getline(in, line);) {
+    std::vector<std::string> row;
+    std::stringstream fields(line);
+    for (std::string f; std::getline(fields, f, ',');) row.push_back(f);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+TrackCommandOptions Options(const Sequence& s) {
+  TrackCommandOptions o;
+  o.model = s.model;
+  o.camera = s.camera.string();
+  o.images = (s.frames / "frame_*.png").string();
+  o.init = (s.frames / "init.json").string();
+  o.output = (s.dir / "track.csv").string();
+  return o;
+}
+
+// The largest distance between the tracked and the true box origin over the verified rows.
+double WorstBoxError(const std::vector<std::vector<std::string>>& track,
+                     const std::vector<std::vector<std::string>>& truth) {
+  double worst = 0;
+  for (size_t r = 1; r < track.size(); ++r) {
+    if (track[r][2] != "1") continue;
+    const size_t frame = std::stoul(track[r][0]);
+    double d2 = 0;
+    for (int k = 3; k < 6; ++k) {
+      const double d = std::stod(track[r][k]) - std::stod(truth[frame + 1][k]);
+      d2 += d * d;
+    }
+    worst = std::max(worst, std::sqrt(d2));
+  }
+  return worst;
+}
+
+TEST_CASE("cli: render --sequence, then track it from a glob, with overlays", "[cli][track]") {
+  const Sequence s = MakeSequence("glob");
+  CHECK(fs::exists(s.frames / "frame_00023.png"));
+  CHECK(fs::exists(s.frames / "init.json"));
+  CHECK_FALSE(fs::exists(s.frames.string() + ".partial"));
+  TrackCommandOptions o = Options(s);
+  o.overlay = (s.dir / "overlay").string();
+  std::ostringstream out, err;
+  REQUIRE(RunTrack(o, out, err) == 0);
+  CHECK_THAT(out.str(), Catch::Contains("24 frames: 24 verified (100.0 %)"));
+  CHECK_THAT(out.str(), Catch::Contains("time per frame: median"));
+  const auto track = ReadCsv(o.output);
+  const auto truth = ReadCsv(s.frames / "truth.csv");
+  REQUIRE(track.size() == 25);
+  // The same columns as the truth: frame, time_ms, verified, box's 7, lid's 7, hinge.
+  CHECK(track[0] == truth[0]);
+  CHECK(track[0].size() == 3 + 7 + 7 + 1);
+  CHECK(track[0].back() == "hinge");
+  for (size_t r = 1; r < track.size(); ++r) {
+    CHECK(track[r][0] == std::to_string(r - 1));
+    CHECK(std::stod(track[r][1]) > 0);
+  }
+  CHECK(WorstBoxError(track, truth) < 0.01);
+  CHECK(fs::exists(s.dir / "overlay" / "frame_00000.png"));
+  CHECK(cv::imread((s.dir / "overlay" / "frame_00023.png").string()).cols == 640);
+}
+
+TEST_CASE("cli: track a directory, and a video, to stdout", "[cli][track]") {
+  const Sequence s = MakeSequence("video");
+  TrackCommandOptions o = Options(s);
+  o.images = s.frames.string();  // the directory: its images, sorted
+  o.output.clear();
+  std::ostringstream out, err;
+  REQUIRE(RunTrack(o, out, err) == 0);
+  CHECK_THAT(out.str(), Catch::StartsWith("frame,time_ms,verified,box.x"));
+  CHECK_THAT(err.str(), Catch::Contains("24 verified"));
+
+  // The frames as a Motion-JPEG video (OpenCV's own AVI writer: no codec library needed).
+  const fs::path video = s.dir / "frames.avi";
+  {
+    cv::VideoWriter writer(video.string(), cv::VideoWriter::fourcc('M', 'J', 'P', 'G'), 30,
+                           cv::Size(640, 480), false);
+    REQUIRE(writer.isOpened());
+    for (int i = 0; i < 24; ++i) {
+      writer.write(
+          cv::imread((s.frames / cv::format("frame_%05d.png", i)).string(), cv::IMREAD_GRAYSCALE));
+    }
+  }
+  o.images = video.string();
+  o.output = (s.dir / "video.csv").string();
+  std::ostringstream out2, err2;
+  REQUIRE(RunTrack(o, out2, err2) == 0);
+  const auto track = ReadCsv(o.output);
+  REQUIRE(track.size() == 25);
+  int verified = 0;
+  for (size_t r = 1; r < track.size(); ++r) verified += track[r][2] == "1";
+  CHECK(verified >= 22);  // JPEG's artefacts cost little
+  CHECK(WorstBoxError(track, ReadCsv(s.frames / "truth.csv")) < 0.015);
+}
+
+TEST_CASE("cli: an unreadable frame is reported and skipped; the track goes on", "[cli][track]") {
+  const Sequence s = MakeSequence("unreadable");
+  std::ofstream(s.frames / "frame_00005.png") << "not a PNG";
+  TrackCommandOptions o = Options(s);
+  std::ostringstream out, err;
+  CHECK(RunTrack(o, out, err) == 2);
+  CHECK_THAT(err.str(), Catch::Contains("frame_00005.png") && Catch::Contains("skipped"));
+  CHECK_THAT(err.str(), Catch::Contains("1 frame(s) could not be read (5)"));
+  const auto track = ReadCsv(o.output);
+  REQUIRE(track.size() == 24);  // the header and 23 frames
+  CHECK(track[5][0] == "4");
+  CHECK(track[6][0] == "6");
+  CHECK(track[6][2] == "1");  // tracked across the gap
+}
+
+TEST_CASE("cli: track refuses bad input with status 2 and writes nothing", "[cli][track]") {
+  const Sequence s = MakeSequence("bad");
+  auto refused = [&](TrackCommandOptions o, const std::string& message) {
+    o.overlay = (s.dir / "overlay_bad").string();
+    std::ostringstream out, err;
+    CHECK(RunTrack(o, out, err) == 2);
+    CHECK_THAT(err.str(), Catch::Contains(message));
+    CHECK_FALSE(fs::exists(o.output));
+    CHECK_FALSE(fs::exists(o.overlay));
+  };
+  {
+    INFO("a camera of another size");
+    const fs::path small = s.dir / "small.json";
+    std::ofstream(small) << R"({"fx": 400, "fy": 400, "cx": 160, "cy": 120, "width": 320,
+                               "height": 240})";
+    TrackCommandOptions o = Options(s);
+    o.camera = small.string();
+    refused(o, "frame_00000.png: error: the image is 640 x 480, the camera's");
+  }
+  {
+    INFO("a camera without a size");
+    const fs::path sizeless = s.dir / "sizeless.json";
+    std::ofstream(sizeless) << R"({"fx": 800, "fy": 800, "cx": 320, "cy": 240})";
+    TrackCommandOptions o = Options(s);
+    o.camera = sizeless.string();
+    refused(o, "sizeless.json:1:1: error: the pinhole camera needs 'width'");
+  }
+  {
+    INFO("an empty glob");
+    TrackCommandOptions o = Options(s);
+    o.images = (s.frames / "nothing_*.png").string();
+    refused(o, "no file matches the pattern");
+  }
+  {
+    INFO("a glob in a missing directory");
+    TrackCommandOptions o = Options(s);
+    o.images = (s.dir / "missing" / "*.png").string();
+    refused(o, "no such directory");
+  }
+  {
+    INFO("a missing file");
+    TrackCommandOptions o = Options(s);
+    o.images = (s.dir / "missing.avi").string();
+    refused(o, "no such file or directory");
+  }
+  {
+    INFO("an initial pose missing a component");
+    const fs::path init = s.dir / "init_box_only.json";
+    std::ofstream(init) << R"({"components": {"box": {"position": [0, 0, 1.3],
+                              "quaternion": [1, 0, 0, 0]}}})";
+    TrackCommandOptions o = Options(s);
+    o.init = init.string();
+    refused(o, "no pose for component 'lid'");
+  }
+}
+
+TEST_CASE("cli: a far-off start is lost on every frame: status 1, never verified", "[cli][track]") {
+  const Sequence s = MakeSequence("far");
+  const fs::path init = s.dir / "far.json";
+  std::ofstream(init) << R"({"components": {
+      "box": {"position": [0.3, 0.2, 1.6], "quaternion": [1, 0, 0, 0]},
+      "lid": {"position": [0.3, 0.45, 1.8], "quaternion": [1, 0, 0, 0]}}})";
+  TrackCommandOptions o = Options(s);
+  o.init = init.string();
+  std::ostringstream out, err;
+  CHECK(RunTrack(o, out, err) == 1);
+  CHECK_THAT(out.str(), Catch::Contains("0 verified (0.0 %), lost: 0-23"));
+  for (const auto& row : ReadCsv(o.output)) {
+    if (row[0] != "frame") CHECK(row[2] == "0");
+  }
+}
+
+TEST_CASE("cli: render --sequence refuses a bad name or a used directory", "[cli][track]") {
+  const Sequence s = MakeSequence("render_bad");
+  RenderCommandOptions render;
+  render.model = s.model;
+  render.camera = s.camera.string();
+  render.sequence = "sideways";
+  render.output = (s.dir / "new").string();
+  std::ostringstream out, err;
+  CHECK(RunRender(render, out, err) == 2);
+  CHECK_THAT(err.str(), Catch::Contains("no standard sequence 'sideways'"));
+  CHECK_FALSE(fs::exists(render.output));
+  render.sequence = "steady";
+  render.output = s.frames.string();  // exists, not empty
+  CHECK(RunRender(render, out, err) == 2);
+  CHECK_THAT(err.str(), Catch::Contains("exists and is not an empty directory"));
+  render.output = (s.dir / "both").string();
+  render.pose = (s.frames / "init.json").string();
+  CHECK(RunRender(render, out, err) == 2);
+  CHECK_THAT(err.str(), Catch::Contains("exclude each other"));
+}
+
+}  // namespace
+}  // namespace cfuse::cli
