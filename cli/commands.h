@@ -81,10 +81,14 @@ int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err);
 
 struct DemoOptions {
   std::string picture = "cfuse-demo.png";  // PNG of the measurements and the fitted lamp
+  // The tracking part's overlay frames (a directory, replaced); empty: none written.
+  std::string track_overlay = "cfuse-demo-track";
 };
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
 
-// The embedded copy of examples/lamp.yaml used by `cfuse demo` (generated at build time).
+// The embedded copies of examples/lamp.yaml and examples/hinged-box.yaml used by `cfuse demo`
+// (generated at build time).
 extern const char* const kEmbeddedLampYaml;
+extern const char* const kEmbeddedHingedBoxYaml;
 
 }  // namespace cfuse::cli

@@ -158,9 +158,15 @@ int main(int argc, char** argv) {
       ->capture_default_str();
 
   CLI::App* demo_cmd = app.add_subcommand(
-      "demo", "The built-in desk lamp: simulated with clutter and occlusion, then interpreted");
+      "demo",
+      "The built-in desk lamp simulated with clutter and occlusion, then interpreted; the hinged "
+      "box tracked through a rendered sequence");
   cfuse::cli::DemoOptions demo;
   demo_cmd->add_option("--picture", demo.picture, "PNG picture to write")->capture_default_str();
+  demo_cmd
+      ->add_option("--track-overlay", demo.track_overlay,
+                   "Directory for the tracking part's overlay frames ('' for none)")
+      ->capture_default_str();
 
   try {
     app.parse(argc, argv);

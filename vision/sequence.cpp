@@ -95,10 +95,9 @@ SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& n
   SequenceSpec spec;
   spec.frames = frames;
   spec.start = LookAt(centre, 0.35, 0.6, 1.3);
-  spec.velocity = Eigen::Vector3d(0.003, 0.0005, 0);
   spec.spin = Eigen::Vector3d(0.002, 0.004, 0.002);
-  spec.wobble = Eigen::Vector3d(0, 0.03, 0.05);
-  spec.wobble_period = 50;
+  spec.wobble = Eigen::Vector3d(0.09, 0.03, 0.05);
+  spec.wobble_period = 100;
   spec.joint_period = 80;
   for (const Joint& j : graph.joints) {
     if (!HasJointVariable(j.type)) continue;
@@ -112,7 +111,6 @@ SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& n
   }
   spec.render.seed = seed;
   if (name == "fast") {
-    spec.velocity.setZero();
     spec.wobble = Eigen::Vector3d(0.3, 0.02, 0.03);
     spec.wobble_period = 40;
   } else if (name == "occluded") {

@@ -45,10 +45,10 @@ Rigid3d LookAt(const Eigen::Vector3d& target, double azimuth, double elevation, 
 
 // The tracker's standard scenarios, for its tests, its benchmark and the demo: `graph` seen by
 // StandardCamera() from 1.3 m, from above (elevation 0.6 rad) and a little to the side (azimuth
-// 0.35 rad) of its root component's points' centroid, drifting 3 mm and turning 0.3 degrees a
-// frame with a wobble, every joint with limits swinging between 10 % and 90 % of its range (a
-// joint without limits: ±0.5 about its nominal value) over 80 frames; 30 clutter lines and 12
-// blobs, noise 2 and blur 0.8. By name:
+// 0.35 rad) of its root component's points' centroid, swaying ±9 cm across the view and ±5 cm
+// in depth over 100 frames (up to 6 mm a frame) and turning 0.3 degrees a frame, every joint with
+// limits swinging between 10 % and 90 % of its range (a joint without limits: ±0.5 about its
+// nominal value) over 80 frames; 30 clutter lines and 12 blobs, noise 2 and blur 0.8. By name:
 //   steady    just that;
 //   fast      swept ±0.3 m across the view every 40 frames instead: the centre moves up to
 //             29 px a frame (median about 20);
