@@ -196,11 +196,16 @@ TEST_CASE("cli: demo interprets the built-in lamp and writes its picture", "[cli
   const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
   fs::create_directories(dir);
   const fs::path picture = dir / "demo.png";
+  const fs::path overlays = dir / "demo-track";
   fs::remove(picture);
   std::ostringstream out, err;
-  CHECK(RunDemo({picture.string()}, out, err) == 0);
+  CHECK(RunDemo({picture.string(), overlays.string()}, out, err) == 0);
   CHECK(out.str().find("DOF: 11 (6 rigid-body + 5 internal)") != std::string::npos);
   CHECK(out.str().find("matches: 23 of 23 points right") != std::string::npos);
+  // The tracking part: the hinged box through 120 frames, its overlays written.
+  CHECK(out.str().find("of 120 frames verified") != std::string::npos);
+  CHECK(fs::exists(overlays / "frame_00119.png"));
+  CHECK_FALSE(fs::exists(overlays.string() + ".partial"));
   CHECK(err.str().empty());
   // A PNG: its signature, and a picture of some size.
   std::ifstream in(picture, std::ios::binary);
@@ -210,7 +215,7 @@ TEST_CASE("cli: demo interprets the built-in lamp and writes its picture", "[cli
 
   // A picture that cannot be written: exit status 2, nothing left behind.
   std::ostringstream out2, err2;
-  CHECK(RunDemo({(dir / "nope" / "demo.png").string()}, out2, err2) == 2);
+  CHECK(RunDemo({(dir / "nope" / "demo.png").string(), ""}, out2, err2) == 2);
   CHECK(err2.str().find("directory") != std::string::npos);
 }
 
