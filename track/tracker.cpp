@@ -149,6 +149,9 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
   if (out.verified) {
     // (the initial configuration is frame 0's guess: frame 0's estimate replaces it)
     if (history_.back().first == frame_) history_.pop_back();
+    // A frame found only by doubling the range broke with the motion so far (a knock, a
+    // jerk): the step to it is no velocity to carry on. The next frame predicts no motion.
+    if (out.doublings > 0) history_.clear();
     history_.push_back({frame_, out.estimate.mean});
     if (history_.size() > 2) history_.erase(history_.begin());
   }

@@ -5,12 +5,13 @@
 // matches by the kernel's estimator with the prediction as its prior.
 //
 // One frame:
-//  1. Prediction. Every block moves on by its last step (velocity extrapolation from the last
-//     two verified frames, in values.h's chart), with a prior of `rotation_range` (a part on a
-//     joint: `joint_rotation_range`) and `translation_range` on each component (the search
-//     range), into which the model's
-//     constraints are fused: the prior then lives on the model's own configurations (7 DOF for
-//     the hinged box).
+//  1. Prediction. Every block moves on by the velocity of the last two verified frames (per
+//     frame, in values.h's chart), carried at most `max_extrapolation` frames past the last
+//     verified one, with a prior of `rotation_range` (a part on a joint: `joint_rotation_range`)
+//     and `translation_range` on each component (the search range), into which the model's
+//     constraints are fused: the prior then lives on the model's own configurations (7 DOF
+//     for the hinged box). After lost frames the range starts wider, (1 + frames lost) times,
+//     at most `max_lost_growth`.
 //  2. Features. The model's visible edges at the prediction (vision/model_edges.h), and for each
 //     the variance of where the image shows it, S = A P Aᵀ (Lowe's equation 2), from the
 //     kernel's prediction of its segment residual (kernel/measurements/image_segment.h): the
@@ -23,20 +24,30 @@
 //     w x h pixels, m the edge's length extended by its uncertainty, s the segment's.
 //  4. Search, best first. A match set takes the most probable matches (one per edge and per
 //     segment) until they constrain the model's DOF (2 per segment), and more while the product
-//     of their probabilities stays above 0.9. It is solved from the prior with the model's
-//     constraints, and accepted when its residual passes a chi-square test at the pixel noise
-//     (Lowe's σ² = |Jx - e|² / (m - n)). A rejected set lowers each of its matches' probability
-//     by the factor (1 - 1/n) and is never tried again, nor any set containing it; at most
-//     `max_branches` sets a frame. An accepted set is extended with every match the tightened
-//     prediction supports (probability above one half), and solved again.
-//  5. Verification. The frame is verified when the accepted matches cover `verify_share` of the
-//     visible edges' predicted length.
-//  6. Recovery. With too few candidates, or no set accepted, the search range is doubled and the
-//     frame tried again, at most `max_doublings` times. A frame still not verified is lost: its
-//     estimate is the prediction, and the next frame predicts from the last verified one (with
-//     its range doubled once), so that a lost frame never corrupts the next.
-//  Verified also means spare matches: at least `spare_matches` beyond the DOF's, since a set
-//  that barely constrains the model fits a wrong pose as well as the right one.
+//     of their probabilities stays above 0.9. Lowe scores every candidate against the
+//     prediction alone; here (`conditional_sets`) each match taken is fused into the prior
+//     before the next is chosen, and the rest re-scored against the tightened prediction, as
+//     one path down Hel-Or & Werman's interpretation tree: after one edge of a box knocked 40
+//     px sideways is matched, its parallel neighbours no longer look like the next edge's
+//     image. The set is solved from the prior with the model's constraints, and passes when
+//     its residual passes a chi-square test at the pixel noise (Lowe's σ² = |Jx - e|² /
+//     (m - n)). A rejected set lowers each of its matches' probability by the factor
+//     (1 - 1/n) and is never tried again, nor any set containing it; at most `max_branches`
+//     sets a range. A set that passes is extended with every match the tightened prediction
+//     supports (probability above one half), and solved again.
+//  5. Verification. A set verifies the frame when its matches cover `verify_share` of the
+//     visible edges' predicted length and `verify_component_share` of each component's in
+//     view, pin every component down (`max_spread`: a lid whose only matched edge is its
+//     hinge is not seen), and number at least `spare_matches` beyond the DOF's (a set that
+//     barely constrains the model fits a wrong pose as well as the right one). A set that
+//     explains `confident_share` of the model ends the search; one that explains less may be a
+//     wrong pose that fits a few edges, so the other branches are tried too and the best
+//     verified set wins.
+//  6. Recovery. With too few candidates, or no set verified, the search range is doubled and
+//     the frame tried again, at most `max_doublings` times. A frame still not verified is lost:
+//     its estimate is the prediction, and the next frame predicts from the last verified ones,
+//     so that a lost frame never corrupts the next. A frame found only by doubling broke with
+//     the motion so far (a knock): its step is not taken for a velocity.
 #pragma once
 
 #include <optional>

@@ -145,6 +145,8 @@ TEST_CASE("tracker: a knock beyond the search range is found by doubling it", "[
   CHECK(knocked.doublings >= 1);
   CHECK((knocked.verified || e.track[spec.jump_frame + 1].verified ||
          e.track[spec.jump_frame + 2].verified));
+  // The knock is no velocity: the frames after it track too.
+  for (int i = spec.jump_frame + 3; i < 40; ++i) CHECK(e.track[i].verified);
   // Without doubling, the knock loses the object.
   TrackerOptions no_doubling;
   no_doubling.max_doublings = 0;
