@@ -1,5 +1,7 @@
 #include "constraints/evaluate.h"
 
+#include <cmath>
+
 namespace cfuse {
 
 void EvaluateConstraints(const ConstraintGraph& graph, const Values& values, Eigen::VectorXd* r,
@@ -23,6 +25,18 @@ void EvaluateConstraints(const ConstraintGraph& graph, const Values& values, Eig
       }
     }
     row += ri.size();
+  }
+}
+
+void MatchSlacks(const ConstraintGraph& graph, Values* values) {
+  double residual = 0;
+  for (const Constraint& c : graph.constraints) {
+    if (c.slack_block < 0 || c.residual->dimension() != 1) continue;
+    double& slack = values->slacks[graph.blocks[c.slack_block].index];
+    const double sign = slack < 0 ? -1 : 1;
+    slack = 0;
+    EvaluateResidualAt(*c.residual, graph.blocks, c.blocks, *values, nullptr, &residual, nullptr);
+    slack = std::isfinite(residual) ? sign * std::sqrt(std::max(residual, 0.0)) : 0;
   }
 }
 

@@ -15,4 +15,9 @@ namespace cfuse {
 void EvaluateConstraints(const ConstraintGraph& graph, const Values& values, Eigen::VectorXd* r,
                          Eigen::MatrixXd* J);
 
+// Every inequality's slack from its constraint at the other blocks' values, λ = ±√max(g, 0)
+// (keeping λ's sign), so that a start (a guess, a tracker's first frame) does not begin with
+// violated slack equations.
+void MatchSlacks(const ConstraintGraph& graph, Values* values);
+
 }  // namespace cfuse

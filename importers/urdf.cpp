@@ -5,6 +5,7 @@
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <array>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -485,9 +486,26 @@ class UrdfReader {
         if (same) return;  // the collision shape repeats the visual one
       }
       const int k = count[kind]++;
+      std::vector<int> index;
       for (const auto& [suffix, p] : points) {
-        builder->AddFeaturePoint(component, fmt::format("{}{}{}{}", prefix, kind, k, suffix), p,
-                                 where);
+        index.push_back(builder->AddFeaturePoint(
+            component, fmt::format("{}{}{}{}", prefix, kind, k, suffix), p, where));
+      }
+      if (kind == "box") {
+        // Its six faces, counter-clockwise seen from outside (corner i has bit 0, 1, 2 for
+        // +x, +y, +z): their sides are the edges the tracker matches.
+        static constexpr std::array<std::pair<const char*, std::array<int, 4>>, 6> kFaces = {{
+            {"_nx", {0, 4, 6, 2}},
+            {"_px", {1, 3, 7, 5}},
+            {"_ny", {0, 1, 5, 4}},
+            {"_py", {2, 6, 7, 3}},
+            {"_nz", {0, 2, 3, 1}},
+            {"_pz", {4, 5, 7, 6}},
+        }};
+        for (const auto& [suffix, loop] : kFaces) {
+          builder->AddFace(component, fmt::format("{}{}{}{}", prefix, kind, k, suffix),
+                           {index[loop[0]], index[loop[1]], index[loop[2]], index[loop[3]]}, where);
+        }
       }
       done.emplace_back(kind, std::move(positions));
     };

@@ -15,7 +15,9 @@
 //     whose limits are equal (lower = upper) is locked there and merged the same way.
 //   - Feature points of a link: `origin` (its frame's origin) and, from its visual and
 //     collision geometry, the corners of each box (`box<k>_c<i>`, i = 0..7 with bit 0, 1, 2 of
-//     i choosing -/+ half the size along x, y, z), the cap centres of each cylinder
+//     i choosing -/+ half the size along x, y, z) and its six faces (`box<k>_nx`, `_px`, `_ny`,
+//     `_py`, `_nz`, `_pz`, outward normals along -x, +x, ...: the edges a tracker matches),
+//     the cap centres of each cylinder
 //     (`cyl<k>_top` at +length/2 along its z, `cyl<k>_bottom`) and the centre of each sphere
 //     (`sphere<k>`); k counts that kind in the link, visual before collision, and a geometry
 //     whose points repeat an earlier one's is skipped. Meshes are referenced, not loaded: they

@@ -140,21 +140,6 @@ void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* valu
   }
 }
 
-// Every inequality's slack λ from its residual g - λ² at λ = 0: λ = √max(g, 0), keeping its
-// sign, so that a start that moved the components does not begin with violated slack
-// equations.
-void MatchSlacks(const ConstraintGraph& graph, Values* values) {
-  double residual = 0;
-  for (const Constraint& c : graph.constraints) {
-    if (c.slack_block < 0 || c.residual->dimension() != 1) continue;
-    double& slack = values->slacks[graph.blocks[c.slack_block].index];
-    const double sign = slack < 0 ? -1 : 1;
-    slack = 0;
-    EvaluateResidualAt(*c.residual, graph.blocks, c.blocks, *values, nullptr, &residual, nullptr);
-    slack = std::isfinite(residual) ? sign * std::sqrt(std::max(residual, 0.0)) : 0;
-  }
-}
-
 Eigen::Vector3d ModelPoint(const ConstraintGraph& graph, const Values& values, int component,
                            int feature) {
   const Component& c = graph.components[component];

@@ -27,6 +27,7 @@
 #include <string>
 #include <vector>
 
+#include "constraints/evaluate.h"
 #include "constraints/graph.h"
 #include "kernel/estimator.h"
 #include "kernel/measurement_set.h"
@@ -87,10 +88,6 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
 // The guess's poses and points in place of `values`' (a merged link's frame places its
 // component); an unknown name is an InputError at its entry.
 void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* values);
-
-// Every inequality's slack from its constraint at the other blocks' values, λ = ±√max(g, 0)
-// (keeping λ's sign), so that a start does not begin with violated slack equations.
-void MatchSlacks(const ConstraintGraph& graph, Values* values);
 
 // Moves single point `block` to where constraints `list` hold best, everything else in `x`
 // fixed: Levenberg-Marquardt on the sum of their squared residuals. False when they or their

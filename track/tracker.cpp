@@ -8,6 +8,7 @@
 #include <stdexcept>
 
 #include "constraints/dof.h"
+#include "constraints/evaluate.h"
 #include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
 #include "kernel/measurements/image_segment.h"
@@ -112,7 +113,11 @@ Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Value
     constraints_.push_back({c.residual, c.blocks, {}, c.name});
   const DofReport dof = AnalyzeDof(graph_, graph_.nominal);
   if (dof.computed) dof_ = dof.dof;
-  history_ = {{0, initial}};
+  // The start's slacks from its poses: a limit's slack left at the nominal geometry's value
+  // would pull the joint there as soon as the limit is fused.
+  Values start = initial;
+  MatchSlacks(graph_, &start);
+  history_ = {{0, start}};
 }
 
 Values Tracker::Predicted() const {

@@ -97,6 +97,23 @@ TEST_CASE("urdf: links become components, fixed and locked links frames on them"
       Eigen::Vector3d(0.1, 0, 0) +
       RotationAboutAxis<double>(Eigen::Vector3d::UnitY(), 0.2) * Eigen::Vector3d(0.1, -0.02, -0.02);
   CHECK((PointOf(g, "fore", "box0_c1") - c1).norm() < 1e-15);
+  // Each box has six faces, their normals (right-hand rule) pointing out of it: the tracker
+  // matches their sides.
+  for (const char* link : {"base", "fore"}) {
+    CAPTURE(link);
+    const Component& c = g.components[g.FindComponent(link)];
+    REQUIRE(c.faces.size() == 6);
+    Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+    for (int i = 0; i < 8; ++i) centre += PointOf(g, link, "box0_c" + std::to_string(i)) / 8;
+    for (const Face& f : c.faces) {
+      CAPTURE(f.name);
+      REQUIRE(f.loop.size() == 4);
+      const Eigen::Vector3d& a = c.points[f.loop[0]].position;
+      const Eigen::Vector3d normal =
+          (c.points[f.loop[1]].position - a).cross(c.points[f.loop[2]].position - a);
+      CHECK(normal.dot(a - centre) > 0);
+    }
+  }
 
   std::vector<std::pair<std::string, JointType>> joints;
   for (const Joint& j : g.joints) joints.emplace_back(j.name, j.type);

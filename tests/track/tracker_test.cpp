@@ -12,6 +12,7 @@
 
 #include "dsl/model_loader.h"
 #include "importers/cao.h"
+#include "importers/urdf.h"
 #include "interp/joint_estimates.h"
 #include "test_util.h"
 #include "track/overlay.h"
@@ -127,6 +128,13 @@ TEST_CASE("tracker: the hinged box behind a sweeping occluder", "[tracker]") {
 
 TEST_CASE("tracker: the hinged box in heavy clutter", "[tracker]") {
   CheckScenario(HingedBox(), {"clutter", 0.95, 3.0, 5.0, 1.5});
+}
+
+TEST_CASE("tracker: a robot from its URDF, links with box primitives (the hinged box)",
+          "[tracker]") {
+  const ConstraintGraph graph =
+      importers::ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
+  CheckScenario(graph, {"steady", 1.0, 3.0, 5.0, 1.5});
 }
 
 TEST_CASE("tracker: a knock the prediction cannot foresee", "[tracker]") {
