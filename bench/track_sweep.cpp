@@ -190,36 +190,18 @@ int Run(int argc, char** argv) {
        {std::pair<const char*, const ConstraintGraph*>{"hinged", &hinged}, {"rigid", &box}}) {
     for (const std::string& scenario : vision::StandardSequenceNames()) {
       const std::vector<vision::SequenceFrame> sequence = render(*graph, scenario);
-      std::vector<double> motion;
-      for (size_t i = 1; i < sequence.size(); ++i) {
-        for (const FeaturePoint& p : graph->components[0].points) {
-          motion.push_back((camera.Project<double>(sequence[i].truth.poses[0] * p.position) -
-                            camera.Project<double>(sequence[i - 1].truth.poses[0] * p.position))
-                               .norm());
-        }
-      }
       const Result r = RunCfuse(*graph, sequence, 1);
       fmt::print("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", name, scenario,
-                 Num(Median(motion), 1), r.Verified(), r.wrong, Num(Median(r.t_mm)),
-                 Num(Max(r.t_mm)), Num(Median(r.r_deg)), Num(Max(r.r_deg)), Num(Median(r.q_deg)),
-                 Num(Max(r.q_deg)), Num(Median(r.ms)));
+                 Num(vision::MedianImageMotion(*graph, sequence, camera), 1), r.Verified(), r.wrong,
+                 Num(Median(r.t_mm)), Num(Max(r.t_mm)), Num(Median(r.r_deg)), Num(Max(r.r_deg)),
+                 Num(Median(r.q_deg)), Num(Max(r.q_deg)), Num(Median(r.ms)));
       std::fflush(stdout);
     }
   }
 
   // 3. The hinged box against the step.
   fmt::print("\n## Hinged box against the frame step k (steady: {:.1f} px a frame at k = 1)\n\n",
-             [&] {
-               std::vector<double> m;
-               for (size_t i = 1; i < steady.size(); ++i) {
-                 for (const FeaturePoint& p : hinged.components[0].points) {
-                   m.push_back((camera.Project<double>(steady[i].truth.poses[0] * p.position) -
-                                camera.Project<double>(steady[i - 1].truth.poses[0] * p.position))
-                                   .norm());
-                 }
-               }
-               return Median(m);
-             }());
+             vision::MedianImageMotion(hinged, steady, camera));
   fmt::print(
       "| k | frames | tracked | verified | wrong | median t (mm) | worst t (mm) | median R (°) "
       "| worst R (°) | median joint (°) | worst joint (°) | median ms |\n");

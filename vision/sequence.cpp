@@ -125,6 +125,26 @@ SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& n
   return spec;
 }
 
+double MedianImageMotion(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frames,
+                         const Camera& camera) {
+  const int root = RootComponent(graph);
+  if (root < 0 || frames.size() < 2) return 0;
+  const Component& c = graph.components[root];
+  const int index = graph.blocks[c.block].index;
+  std::vector<double> motion;
+  for (size_t i = 1; i < frames.size(); ++i) {
+    for (const FeaturePoint& p : c.points) {
+      motion.push_back((camera.Project<double>(frames[i].truth.poses[index] * p.position) -
+                        camera.Project<double>(frames[i - 1].truth.poses[index] * p.position))
+                           .norm());
+    }
+  }
+  if (motion.empty()) return 0;
+  std::nth_element(motion.begin(), motion.begin() + static_cast<long>(motion.size() / 2),
+                   motion.end());
+  return motion[motion.size() / 2];
+}
+
 std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Camera& camera,
                                           const SequenceSpec& spec) {
   std::vector<SequenceFrame> out;

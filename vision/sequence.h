@@ -63,6 +63,13 @@ std::vector<std::string> StandardSequenceNames();
 // 640 x 480 pixels, f = 800 px, principal point at the centre, no distortion.
 Camera StandardCamera();
 
+struct SequenceFrame;
+
+// The median image motion between consecutive frames (px): how far the root component's points
+// move in the image from one frame to the next.
+double MedianImageMotion(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frames,
+                         const Camera& camera);
+
 struct SequenceFrame {
   Values truth;         // every component's pose in the camera frame
   Rendering rendering;  // the image and its visible edges

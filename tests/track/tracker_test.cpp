@@ -69,21 +69,6 @@ ConstraintGraph RigidBox() {
   return importers::ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
 }
 
-// The median image motion of the root's corners between consecutive frames (px).
-double MedianMotion(const ConstraintGraph& graph,
-                    const std::vector<vision::SequenceFrame>& frames) {
-  const Camera camera = vision::StandardCamera();
-  std::vector<double> motion;
-  for (size_t i = 1; i < frames.size(); ++i) {
-    for (const FeaturePoint& p : graph.components[0].points) {
-      motion.push_back((camera.Project<double>(frames[i].truth.poses[0] * p.position) -
-                        camera.Project<double>(frames[i - 1].truth.poses[0] * p.position))
-                           .norm());
-    }
-  }
-  return Errors::Quantile(motion, 0.5);
-}
-
 struct Bar {
   const char* scenario;
   double verified;      // share of frames, at least
@@ -104,7 +89,8 @@ void CheckScenario(const ConstraintGraph& graph, const Bar& bar, int frames = 40
     CHECK(Errors::Quantile(e.translation_mm, 0.9) <= bar.p90_mm);
     CHECK(Errors::Quantile(e.rotation_deg, 0.5) <= 1.0);
     if (!graph.joints.empty()) CHECK(Errors::Quantile(e.joint_deg, 0.5) <= bar.median_joint);
-    if (std::string(bar.scenario) == "fast") CHECK(MedianMotion(graph, sequence) >= 15);
+    if (std::string(bar.scenario) == "fast")
+      CHECK(vision::MedianImageMotion(graph, sequence, vision::StandardCamera()) >= 15);
   }
 }
 
