@@ -135,8 +135,11 @@ class ProgressBar {
  public:
   ProgressBar(std::ostream& err, bool enabled, int total)
       : err_(err), enabled_(enabled), total_(total), start_(Clock::now()) {}
-  ~ProgressBar() {
+  ~ProgressBar() { Finish(); }
+  // Clears the bar's line, for what is printed next.
+  void Finish() {
     if (shown_) err_ << "\r" << std::string(72, ' ') << "\r" << std::flush;
+    shown_ = false;
   }
   void Update(int done, double median_ms) {
     if (!enabled_) return;
@@ -302,6 +305,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
       }
       progress.Update(frame + 1, Median(ms));
     }
+    progress.Finish();
     if (frames == 0 && unreadable.empty()) {
       throw InputError(SourceLocation(options.images), "the video holds no frames");
     }
