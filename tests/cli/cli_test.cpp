@@ -117,8 +117,7 @@ TEST_CASE("cli: import writes a robot as a model file with the same DOF", "[cli]
   fs::remove(bad_model);
   std::ostringstream out2, err2;
   CHECK(RunImport({bad_urdf.string(), bad_model.string()}, out2, err2) == 2);
-  CHECK(err2.str() == bad_urdf.string() +
-                          ":4:53: joint 'j': error: unknown child link 'c'\n");
+  CHECK(err2.str() == bad_urdf.string() + ":4:53: joint 'j': error: unknown child link 'c'\n");
   CHECK_FALSE(fs::exists(bad_model));
 }
 
@@ -134,8 +133,8 @@ TEST_CASE("cli: fk writes every link's pose for the joint values", "[cli]") {
   REQUIRE(RunFk({urdf, joints.string(), poses.string()}, out, err) == 0);
   std::ifstream in(poses);
   const nlohmann::json j = nlohmann::json::parse(in);
-  for (const char* link : {"base", "base_plate", "upper", "fore", "slider", "finger_a",
-                           "finger_b", "tool"}) {
+  for (const char* link :
+       {"base", "base_plate", "upper", "fore", "slider", "finger_a", "finger_b", "tool"}) {
     INFO(link);
     CHECK(j["components"].contains(link));
   }
@@ -158,7 +157,8 @@ TEST_CASE("cli: fk writes every link's pose for the joint values", "[cli]") {
   std::ofstream(joints) << "{\"shoulder\": \"half\"}\n";
   std::ostringstream out3, err3;
   CHECK(RunFk({urdf, joints.string(), ""}, out3, err3) == 2);
-  CHECK(err3.str().find("q.json:1:14: error: joint 'shoulder' must be a number") != std::string::npos);
+  CHECK(err3.str().find("q.json:1:14: error: joint 'shoulder' must be a number") !=
+        std::string::npos);
   CHECK(out3.str().empty());
 }
 
