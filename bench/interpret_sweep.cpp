@@ -39,11 +39,11 @@
 #include <sstream>
 #include <vector>
 
+#include "bench/sweep_main.h"
 #include "dsl/model_loader.h"
 #include "interp/interpretation.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
-#include "kernel/error.h"
 #include "vision/pnp.h"
 
 namespace {
@@ -222,12 +222,5 @@ int Run(int argc, char** argv) {
 }
 
 int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const cfuse::InputError& e) {
-    fmt::print(stderr, "interpret_sweep: {}\n", e.what());
-  } catch (const std::invalid_argument& e) {  // an unknown configuration, a bad number
-    fmt::print(stderr, "interpret_sweep: {}\n", e.what());
-  }
-  return 2;
+  return cfuse::bench::SweepMain("interpret_sweep", Run, argc, argv);
 }

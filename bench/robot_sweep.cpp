@@ -29,13 +29,13 @@
 #include <sstream>
 #include <vector>
 
+#include "bench/sweep_main.h"
 #include "dsl/model_loader.h"
 #include "importers/urdf.h"
 #include "interp/joint_estimates.h"
 #include "interp/parametric.h"
 #include "interp/simulate.h"
 #include "interp/solve.h"
-#include "kernel/error.h"
 
 namespace {
 
@@ -266,13 +266,4 @@ int Run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const cfuse::InputError& e) {
-    fmt::print(stderr, "robot_sweep: {}\n", e.what());
-  } catch (const std::invalid_argument& e) {
-    fmt::print(stderr, "robot_sweep: {}\n", e.what());
-  }
-  return 2;
-}
+int main(int argc, char** argv) { return cfuse::bench::SweepMain("robot_sweep", Run, argc, argv); }

@@ -21,9 +21,9 @@
 #include <sstream>
 #include <vector>
 
+#include "bench/sweep_main.h"
 #include "dsl/model_loader.h"
 #include "interp/simulate.h"
-#include "kernel/error.h"
 #include "vision/render.h"
 #include "vision/segment_index.h"
 #include "vision/segments.h"
@@ -154,12 +154,5 @@ int Run(int argc, char** argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const cfuse::InputError& e) {
-    fmt::print(stderr, "segments_bench: {}\n", e.what());
-  } catch (const std::invalid_argument& e) {
-    fmt::print(stderr, "segments_bench: {}\n", e.what());
-  }
-  return 2;
+  return cfuse::bench::SweepMain("segments_bench", Run, argc, argv);
 }

@@ -27,10 +27,10 @@
 #include <string>
 #include <vector>
 
+#include "bench/sweep_main.h"
 #include "dsl/model_loader.h"
 #include "importers/cao.h"
 #include "interp/joint_estimates.h"
-#include "kernel/error.h"
 #include "track/tracker.h"
 #include "vision/sequence.h"
 #ifdef CFUSE_HAVE_VISP
@@ -262,15 +262,4 @@ int Run(int argc, char** argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  try {
-    return Run(argc, argv);
-  } catch (const cfuse::InputError& e) {
-    fmt::print(stderr, "track_sweep: {}\n", e.what());
-  } catch (const std::invalid_argument& e) {
-    fmt::print(stderr, "track_sweep: {}\n", e.what());
-  } catch (const std::runtime_error& e) {
-    fmt::print(stderr, "track_sweep: {}\n", e.what());
-  }
-  return 2;
-}
+int main(int argc, char** argv) { return cfuse::bench::SweepMain("track_sweep", Run, argc, argv); }

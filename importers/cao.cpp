@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "constraints/model_builder.h"
+#include "importers/read_file.h"
 #include "kernel/so3.h"
 
 namespace cfuse::importers {
@@ -143,30 +144,7 @@ void RequireText(std::string_view text, const std::string& file) {
 }
 
 std::string ReadCaoFile(const std::string& path, const SourceLocation& included_from) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) {
-    throw InputError(included_from.known() ? included_from : SourceLocation(path),
-                     included_from.known() ? fmt::format("cannot open '{}': no such file", path)
-                                           : "cannot open: no such file");
-  }
-  if (fs::is_directory(path, ec)) {
-    throw InputError(SourceLocation(path), "is a directory, not a CAO file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(SourceLocation(path), "cannot open the file");
-  std::string text;
-  char buffer[1 << 16];
-  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
-    text.append(buffer, static_cast<size_t>(in.gcount()));
-    if (text.size() > kMaxCaoFileBytes) {
-      throw InputError(SourceLocation(path),
-                       fmt::format("file is larger than the {} MiB limit for CAO files",
-                                   kMaxCaoFileBytes >> 20));
-    }
-  }
-  if (in.bad()) throw InputError(SourceLocation(path), "cannot read the file");
-  RequireText(text, path);
-  return text;
+  return ReadImportedFile(path, included_from, "CAO", kMaxCaoFileBytes);
 }
 
 class CaoReader {

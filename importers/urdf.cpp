@@ -16,6 +16,7 @@
 #include <vector>
 
 #include "constraints/model_builder.h"
+#include "importers/read_file.h"
 
 namespace cfuse::importers {
 namespace {
@@ -537,31 +538,7 @@ ConstraintGraph ImportUrdfFromString(std::string_view xml, const std::string& di
 }
 
 ConstraintGraph ImportUrdf(const std::string& path, const SourceLocation& where) {
-  std::error_code ec;
-  if (!fs::exists(path, ec)) {
-    throw InputError(where.known() ? where : SourceLocation(path),
-                     where.known() ? fmt::format("cannot open '{}': no such file", path)
-                                   : "cannot open: no such file");
-  }
-  if (fs::is_directory(path, ec)) {
-    throw InputError(SourceLocation(path), "is a directory, not a URDF file");
-  }
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(SourceLocation(path), "cannot open the file");
-  std::string text;
-  char buffer[1 << 16];
-  while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {
-    text.append(buffer, static_cast<size_t>(in.gcount()));
-    if (text.size() > kMaxUrdfFileBytes) {
-      throw InputError(SourceLocation(path), fmt::format("file is larger than the {} MiB limit "
-                                                         "for URDF files",
-                                                         kMaxUrdfFileBytes >> 20));
-    }
-  }
-  if (text.find('\0') != std::string::npos) {
-    throw InputError(SourceLocation(path), "not a URDF file: it holds binary data");
-  }
-  return ImportUrdfFromString(text, path);
+  return ImportUrdfFromString(ReadImportedFile(path, where, "URDF", kMaxUrdfFileBytes), path);
 }
 
 }  // namespace cfuse::importers

@@ -143,14 +143,12 @@ class Tracker {
 
   // The model's degrees of freedom (each matched segment constrains 2).
   int dof() const { return dof_; }
-  const std::vector<vision::ModelEdge>& edges() const { return edges_; }
 
  private:
   struct Candidate {
     int edge = -1, segment = -1;  // indices into predicted and the frame's segments
     double probability = 0;
   };
-  struct Attempt;
 
   Values Predicted() const;
   bool TryRange(const vision::GrayView& image, double base, int doublings, const Values& predicted,
