@@ -3,6 +3,8 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -51,6 +53,11 @@ dsl::LoadOptions ModelLoadOptions() {
 ConstraintGraph LoadAnyModel(const std::string& path) {
   std::string ext = fs::path(path).extension().string();
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  // Said first: a directory's name has no model extension, and "unsupported format" misleads.
+  std::error_code ec;
+  if (fs::is_directory(path, ec)) {
+    throw InputError(SourceLocation(path), "is a directory, not a model file");
+  }
   if (ext == ".urdf") return importers::ImportUrdf(path);
   if (ext == ".cao") return importers::ImportCao(path);
   if (ext != ".yaml" && ext != ".yml") {
@@ -67,34 +74,71 @@ Camera LoadAnyCamera(const std::string& path) {
   return dsl::ReadCameraFile(path);
 }
 
-// Writes `content` to `path` through a temporary file in the same directory, so that a
-// failure never leaves a half-written file.
-void WriteFileAtomically(const std::string& path, const std::string& content) {
+void RequireWritable(const std::string& path) {
   const fs::path target(path);
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::error_code ec;
   if (!fs::is_directory(dir, ec)) {
-    throw InputError(SourceLocation(path),
-                     fmt::format("cannot write: directory '{}' does not exist", dir.string()));
+    throw InputError(
+        SourceLocation(path),
+        fs::exists(dir, ec)
+            ? fmt::format("cannot write: '{}' is not a directory", dir.string())
+            : fmt::format("cannot write: directory '{}' does not exist", dir.string()));
   }
   if (fs::is_directory(target, ec)) {
     throw InputError(SourceLocation(path), "cannot write: it is a directory");
   }
-  const fs::path temp = dir / fmt::format(".{}.tmp{}", target.filename().string(), ::getpid());
-  {
-    std::ofstream out(temp, std::ios::binary | std::ios::trunc);
-    out << content;
-    out.close();
-    if (!out) {
-      fs::remove(temp, ec);
-      throw InputError(SourceLocation(path), "cannot write the file");
+}
+
+OutputFiles::~OutputFiles() {
+  std::error_code ec;
+  for (const auto& [temp, target] : staged_) fs::remove(temp, ec);
+}
+
+void OutputFiles::Stage(const std::string& path, const std::string& content) {
+  RequireWritable(path);
+  const fs::path target(path);
+  const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  const fs::path temp =
+      dir / fmt::format(".{}.tmp{}.{}", target.filename().string(), ::getpid(), staged_.size());
+  std::ofstream out(temp, std::ios::binary | std::ios::trunc);
+  // errno from the failed open says why (permission, read-only file system, ...).
+  const int open_errno = out.is_open() ? 0 : errno;
+  out << content;
+  out.close();
+  if (!out) {
+    std::error_code ec;
+    fs::remove(temp, ec);
+    throw InputError(SourceLocation(path),
+                     open_errno != 0 ? fmt::format("cannot write: {}", std::strerror(open_errno))
+                                     : std::string("cannot write the file (is the disk full?)"));
+  }
+  staged_.emplace_back(temp.string(), path);
+}
+
+void OutputFiles::Commit() {
+  for (size_t i = 0; i < staged_.size(); ++i) {
+    std::error_code ec;
+    fs::rename(staged_[i].first, staged_[i].second, ec);
+    if (ec) {
+      const std::string target = staged_[i].second;
+      staged_.erase(staged_.begin(), staged_.begin() + static_cast<long>(i));  // renamed
+      throw InputError(SourceLocation(target), fmt::format("cannot write: {}", ec.message()));
     }
   }
-  fs::rename(temp, target, ec);
-  if (ec) {
-    fs::remove(temp, ec);
-    throw InputError(SourceLocation(path), fmt::format("cannot write: {}", ec.message()));
-  }
+  staged_.clear();
+}
+
+// Writes `content` to `path` through a temporary file in the same directory, so that a
+// failure never leaves a half-written file.
+void WriteFileAtomically(const std::string& path, const std::string& content) {
+  OutputFiles files;
+  files.Stage(path, content);
+  files.Commit();
+}
+
+std::string JsonText(const nlohmann::json& json, int indent) {
+  return json.dump(indent, ' ', false, nlohmann::json::error_handler_t::replace);
 }
 
 }  // namespace cfuse::cli

@@ -3,8 +3,10 @@
 #pragma once
 
 #include <functional>
+#include <nlohmann/json.hpp>
 #include <ostream>
 #include <string>
+#include <vector>
 
 #include "constraints/graph.h"
 #include "kernel/measurements/camera.h"
@@ -24,8 +26,33 @@ ConstraintGraph LoadAnyModel(const std::string& path);
 // camera object or a ROS camera_info YAML (dsl/measurement_reader.h).
 Camera LoadAnyCamera(const std::string& path);
 
+// Refuses an output path that cannot be written: its directory missing (or not a directory),
+// or the path itself a directory. Commands check every output first, before their work, so that
+// a bad second output neither wastes the work nor leaves the first one written.
+void RequireWritable(const std::string& path);
+
+// A command's output files, written all or none: Stage() writes each to a temporary file beside
+// its target, Commit() renames them all into place; whatever is not committed is removed.
+class OutputFiles {
+ public:
+  OutputFiles() = default;
+  OutputFiles(const OutputFiles&) = delete;
+  OutputFiles& operator=(const OutputFiles&) = delete;
+  ~OutputFiles();
+
+  void Stage(const std::string& path, const std::string& content);
+  void Commit();
+
+ private:
+  std::vector<std::pair<std::string, std::string>> staged_;  // (temporary, target)
+};
+
 // Writes `content` to `path` through a temporary file in the same directory, so that a
 // failure never leaves a half-written file.
 void WriteFileAtomically(const std::string& path, const std::string& content);
+
+// JSON text; a string that is not UTF-8 (a model named after a Latin-1 file name) has its bad
+// bytes replaced by U+FFFD instead of making nlohmann::json throw.
+std::string JsonText(const nlohmann::json& json, int indent);
 
 }  // namespace cfuse::cli

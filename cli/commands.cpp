@@ -29,15 +29,39 @@
 #include "interp/solve.h"
 #include "kernel/check.h"
 #include "kernel/error.h"
+#include "kernel/evaluate.h"
 #include "vision/pnp.h"
 
 namespace cfuse::cli {
+namespace {
+
+// "; farthest from holding: 'NAME' (FORMULA) at FILE:LINE:COLUMN, residual R", the constraint
+// with the largest residual at `values`, or "" if none has one.
+std::string FarthestConstraint(const ConstraintGraph& graph, const Values& values) {
+  const Constraint* worst = nullptr;
+  double largest = 0;
+  Eigen::VectorXd r;
+  for (const Constraint& c : graph.constraints) {
+    EvaluateResidual(*c.residual, graph.blocks, c.blocks, values, &r, nullptr);
+    const double size = r.allFinite() ? r.lpNorm<Eigen::Infinity>() : INFINITY;
+    if (size > largest) {
+      worst = &c;
+      largest = size;
+    }
+  }
+  if (!worst) return "";
+  return fmt::format("; farthest from holding: '{}' ({}) at {}, residual {:.3g}", worst->name,
+                     graph.Describe(*worst), worst->where.ToString(), largest);
+}
+
+}  // namespace
+
 int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const ModelSummary summary = Summarize(graph);
     if (options.json) {
-      out << SummaryJson(graph, summary).dump(2) << "\n";
+      out << JsonText(SummaryJson(graph, summary), 2) << "\n";
     } else {
       PrintSummary(graph, summary, out);
     }
@@ -69,6 +93,7 @@ int RunPlan(const PlanCommandOptions& options, std::ostream& out, std::ostream& 
 
 int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    if (!options.output.empty()) RequireWritable(options.output);
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
     if (std::none_of(set.points.begin(), set.points.end(),
@@ -94,6 +119,7 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
       solve_options.pose_from_projections = &vision::PoseFromProjections;
       solve_options.guess = guess ? &*guess : nullptr;
       solve_options.use_constraints_between_components = options.method != "components";
+      solve_options.reject_outliers = true;
       solution = Solve(graph, set, solve_options);
     }
     const double ms =
@@ -104,11 +130,23 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
       result["status"]["residual_variance"] =
           std::isfinite(*residual_variance) ? nlohmann::json(*residual_variance) : nlohmann::json();
     }
-    const std::string text = result.dump(2) + "\n";
+    const std::string text = JsonText(result, 2) + "\n";
     if (options.output.empty()) {
       out << text;
     } else {
       WriteFileAtomically(options.output, text);
+    }
+    for (const Solution::Rejection& r : solution.rejected) {
+      err << fmt::format(
+          "cfuse: warning: measurement {} ({}) left out as an outlier: {:.3g} standard "
+          "deviations from the estimate of the others\n",
+          r.measurement, set.points[r.measurement].label, r.sigmas);
+    }
+    if (!solution.invalid.empty()) {
+      std::string what;
+      for (const std::string& n : solution.invalid) what += (what.empty() ? "" : "; ") + n;
+      err << fmt::format("cfuse: not fused, its residual not finite: {}\n", what);
+      return 1;
     }
     if (!solution.contradictions.empty()) {
       std::string names;
@@ -118,8 +156,9 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
       return 1;
     }
     if (!solution.summary.converged) {
-      err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes\n",
-                         solution.summary.max_constraint_residual, solution.summary.passes);
+      err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes{}\n",
+                         solution.summary.max_constraint_residual, solution.summary.passes,
+                         FarthestConstraint(graph, solution.state.mean));
       return 1;
     }
     return 0;
@@ -128,6 +167,9 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
 
 int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    for (const std::string* path : {&options.output, &options.tree}) {
+      if (!path->empty()) RequireWritable(*path);
+    }
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
     InterpretOptions interpret;
@@ -156,14 +198,13 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
                         {"refinements", in.stats.refinements},
                         {"matched", in.matched},
                         {"total_delta", in.total_delta}};
-    const std::string text = result.dump(2) + "\n";
-    const std::string dot = options.tree.empty() ? "" : TreeDot(graph, in);
-    if (!options.tree.empty()) WriteFileAtomically(options.tree, dot);
-    if (options.output.empty()) {
-      out << text;
-    } else {
-      WriteFileAtomically(options.output, text);
-    }
+    const std::string text = JsonText(result, 2) + "\n";
+    // The tree and the result both, or neither.
+    OutputFiles files;
+    if (!options.tree.empty()) files.Stage(options.tree, TreeDot(graph, in));
+    if (!options.output.empty()) files.Stage(options.output, text);
+    files.Commit();
+    if (options.output.empty()) out << text;
     if (in.stats.status == SearchStats::Status::kBudget) {
       err << fmt::format(
           "cfuse: the node budget ({}) ended the search: the best interpretation "
@@ -176,6 +217,8 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
 
 int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    RequireWritable(options.output);
+    RequireWritable(options.truth);
     const ConstraintGraph graph = LoadAnyModel(options.model);
     SimulateOptions sim_options;
     sim_options.seed = options.seed;
@@ -187,10 +230,13 @@ int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::o
     sim_options.sample_joints = options.sample_joints;
     if (!options.camera.empty()) sim_options.camera = LoadAnyCamera(options.camera);
     const Simulation sim = Simulate(graph, sim_options);
-    const std::string measurements = MeasurementsJson(sim.measurements).dump(1) + "\n";
-    const std::string truth = TruthJson(graph, sim.truth, sim.matches).dump(1) + "\n";
-    WriteFileAtomically(options.output, measurements);
-    WriteFileAtomically(options.truth, truth);
+    const std::string measurements = JsonText(MeasurementsJson(sim.measurements), 1) + "\n";
+    const std::string truth = JsonText(TruthJson(graph, sim.truth, sim.matches), 1) + "\n";
+    // The measurements and their truth both, or neither.
+    OutputFiles files;
+    files.Stage(options.output, measurements);
+    files.Stage(options.truth, truth);
+    files.Commit();
     out << fmt::format(
         "simulated {} measurements of '{}' ({} real, {} clutter) -> {}, truth -> {}\n",
         sim.measurements.points.size(), graph.name,
@@ -226,7 +272,7 @@ int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err) {
     nlohmann::json result = PosesJson(graph, values);
     result["joints"] = nlohmann::json::object();
     for (const auto& [name, value] : q) result["joints"][name] = {{"value", value}};
-    const std::string text = result.dump(2) + "\n";
+    const std::string text = JsonText(result, 2) + "\n";
     if (options.output.empty()) {
       out << text;
     } else {

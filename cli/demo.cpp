@@ -36,6 +36,19 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
          "rendered sequence\n";
   const ConstraintGraph graph =
       dsl::LoadModelFromString(kEmbeddedHingedBoxYaml, "built-in examples/hinged-box.yaml", ".");
+  // The overlays go to a sibling directory first, which replaces the old one at the end;
+  // created before the frames are rendered, so that a path that cannot be one fails at once.
+  const fs::path target =
+      options.track_overlay.empty() ? fs::path() : fs::absolute(options.track_overlay);
+  const fs::path partial = target.string() + ".partial";
+  std::error_code ec;
+  if (!target.empty()) {
+    fs::remove_all(partial, ec);
+    if (!fs::create_directories(partial, ec)) {
+      throw InputError(SourceLocation(options.track_overlay),
+                       "cannot create the directory: " + ec.message());
+    }
+  }
   const Camera camera = vision::StandardCamera();
   constexpr int kFrames = 120;
   const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", kFrames, 7);
@@ -48,18 +61,6 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
       (spec.joints.at("hinge").first + spec.joints.at("hinge").second) * 180 / M_PI,
       spec.render.clutter_lines);
 
-  // The overlays go to a sibling directory first, which replaces the old one at the end.
-  const fs::path target =
-      options.track_overlay.empty() ? fs::path() : fs::absolute(options.track_overlay);
-  const fs::path partial = target.string() + ".partial";
-  std::error_code ec;
-  if (!target.empty()) {
-    fs::remove_all(partial, ec);
-    if (!fs::create_directories(partial, ec)) {
-      throw InputError(SourceLocation(options.track_overlay),
-                       "cannot create the directory: " + ec.message());
-    }
-  }
   track::Tracker tracker(graph, camera, frames[0].truth);
   std::vector<double> ms, t_mm, q_deg;
   int verified = 0;
@@ -81,8 +82,13 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
       track::OverlayOptions overlay;
       overlay.caption = fmt::format("cfuse demo  frame {}  {}  {:.1f} ms", i,
                                     f.verified ? "verified" : "LOST", f.times.Total());
-      WriteFileAtomically((partial / fmt::format("frame_{:05d}.png", i)).string(),
-                          PngBytes(track::DrawOverlay(view, graph, camera, f, overlay)));
+      try {
+        WriteFileAtomically((partial / fmt::format("frame_{:05d}.png", i)).string(),
+                            PngBytes(track::DrawOverlay(view, graph, camera, f, overlay)));
+      } catch (...) {
+        fs::remove_all(partial, ec);  // no half-written directory left behind
+        throw;
+      }
     }
   }
   auto median = [](std::vector<double> v) {
@@ -105,8 +111,9 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
     fs::remove_all(target, ec);
     fs::rename(partial, target, ec);
     if (ec) {
-      throw InputError(SourceLocation(options.track_overlay),
-                       "cannot write the directory: " + ec.message());
+      const std::string why = ec.message();
+      fs::remove_all(partial, ec);
+      throw InputError(SourceLocation(options.track_overlay), "cannot write the directory: " + why);
     }
     out << fmt::format(
         "overlays: {}/frame_00000.png ... frame_{:05d}.png (yellow: verified, "
@@ -120,6 +127,15 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
 
 int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    // Refused before the demo runs: the picture's place, and an overlay path that is a file
+    // (the overlay directory replaces what is there, and must not delete a file).
+    RequireWritable(options.picture);
+    if (std::error_code ec; !options.track_overlay.empty() &&
+                            fs::exists(options.track_overlay, ec) &&
+                            !fs::is_directory(options.track_overlay, ec)) {
+      throw InputError(SourceLocation(options.track_overlay),
+                       "cannot write: it is not a directory");
+    }
     out << "cfuse demo: the desk lamp of Hel-Or & Werman (1994), built in\n\n";
     const ConstraintGraph graph =
         dsl::LoadModelFromString(kEmbeddedLampYaml, "built-in examples/lamp.yaml", ".");
@@ -226,10 +242,14 @@ int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
         fmt::format("cfuse demo: desk lamp, {} measurements ({} clutter), {} of {} points right",
                     sim.measurements.points.size(), sim.measurements.points.size() - real, right,
                     graph.components.size()));
-    WriteFileAtomically(options.picture, png);
+    // Staged, and committed once the tracking part's overlays are in place: a failure there
+    // leaves no picture behind either.
+    OutputFiles picture;
+    picture.Stage(options.picture, png);
     out << fmt::format("picture: {}\n", options.picture);
     const bool lamp_ok = summary.violations.empty() && in.solution->summary.converged;
     const bool tracked = DemoTracking(options, out);
+    picture.Commit();
     return lamp_ok && tracked ? 0 : 1;
   });
 }

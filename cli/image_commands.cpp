@@ -74,7 +74,7 @@ vision::PixelRect ParseRoi(const std::string& text, const std::string& image, in
 
 // JSON indented, but each array of numbers (a segment) on one line.
 std::string Dump(const nlohmann::json& json) {
-  const std::string text = json.dump(1);
+  const std::string text = JsonText(json, 1);
   std::string out;
   out.reserve(text.size());
   for (size_t i = 0; i < text.size(); ++i) {
@@ -102,19 +102,22 @@ std::string Dump(const nlohmann::json& json) {
   return out + "\n";
 }
 
-void WriteOrPrint(const std::string& path, const nlohmann::json& json, std::ostream& out) {
+// The JSON to `path`, committed with the command's other staged outputs, or to `out`.
+void WriteOrPrint(const std::string& path, const nlohmann::json& json, OutputFiles* files,
+                  std::ostream& out) {
   const std::string text = Dump(json);
-  if (path.empty()) {
-    out << text;
-  } else {
-    WriteFileAtomically(path, text);
-  }
+  if (!path.empty()) files->Stage(path, text);
+  files->Commit();
+  if (path.empty()) out << text;
 }
 
 }  // namespace
 
 int RunSegments(const SegmentsCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    for (const std::string* path : {&options.output, &options.overlay}) {
+      if (!path->empty()) RequireWritable(*path);
+    }
     const std::optional<vision::SegmentDetector> detector = vision::ParseDetector(options.detector);
     if (!detector) {
       throw InputError(
@@ -136,6 +139,7 @@ int RunSegments(const SegmentsCommandOptions& options, std::ostream& out, std::o
       json["segments"].push_back(SegmentJson(s.a.x(), s.a.y(), s.b.x(), s.b.y()));
     }
     json["time_ms"] = Round3(times.Total());
+    OutputFiles files;  // the overlay and the segments both, or neither
     if (!options.overlay.empty()) {
       cv::Mat picture;
       cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
@@ -147,15 +151,18 @@ int RunSegments(const SegmentsCommandOptions& options, std::ostream& out, std::o
         cv::line(picture, cv::Point2f(s.a.x(), s.a.y()), cv::Point2f(s.b.x(), s.b.y()),
                  cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
       }
-      WriteFileAtomically(options.overlay, PngBytes(picture));
+      files.Stage(options.overlay, PngBytes(picture));
     }
-    WriteOrPrint(options.output, json, out);
+    WriteOrPrint(options.output, json, &files, out);
     return 0;
   });
 }
 
 int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    for (const std::string* path : {&options.output, &options.overlay}) {
+      if (!path->empty()) RequireWritable(*path);
+    }
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const Camera camera = LoadAnyCamera(options.camera);
     if (camera.width <= 0 || camera.height <= 0) {
@@ -179,6 +186,7 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
       json["names"].push_back(graph.components[edges[e.edge].component].name + "." +
                               edges[e.edge].name);
     }
+    OutputFiles files;  // the overlay and the edges both, or neither
     if (!options.overlay.empty()) {
       const cv::Mat image = ReadGrayImage(options.image);
       if (image.cols != camera.width || image.rows != camera.height) {
@@ -192,9 +200,9 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
         cv::line(picture, cv::Point2d(e.a.x(), e.a.y()), cv::Point2d(e.b.x(), e.b.y()),
                  cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
       }
-      WriteFileAtomically(options.overlay, PngBytes(picture));
+      files.Stage(options.overlay, PngBytes(picture));
     }
-    WriteOrPrint(options.output, json, out);
+    WriteOrPrint(options.output, json, &files, out);
     return 0;
   });
 }
@@ -207,6 +215,16 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
                           const Camera& camera, std::ostream& out) {
   const SourceLocation where(options.output);
   std::error_code ec;
+  // Like every other output, a new directory in an existing one (not its parents created).
+  const fs::path parent = fs::path(options.output).has_parent_path()
+                              ? fs::path(options.output).parent_path()
+                              : fs::path(".");
+  if (!fs::is_directory(parent, ec)) {
+    throw InputError(
+        where, fs::exists(parent, ec)
+                   ? fmt::format("cannot write: '{}' is not a directory", parent.string())
+                   : fmt::format("cannot write: directory '{}' does not exist", parent.string()));
+  }
   if (fs::exists(options.output, ec) &&
       !(fs::is_directory(options.output, ec) && fs::is_empty(options.output, ec))) {
     throw InputError(where, "exists and is not an empty directory: give a new one");
@@ -240,9 +258,11 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
     }
     WriteFileAtomically((partial / "truth.csv").string(), truth);
     WriteFileAtomically((partial / "init.json").string(),
-                        PosesJson(graph, frames.front().truth).dump(1) + "\n");
+                        JsonText(PosesJson(graph, frames.front().truth), 1) + "\n");
     fs::remove(target, ec);  // an empty directory, or nothing
-    fs::rename(partial, target);
+    // With an error code: a failed rename is an InputError at the output, not an internal one.
+    fs::rename(partial, target, ec);
+    if (ec) throw InputError(where, "cannot write the directory: " + ec.message());
   } catch (...) {
     fs::remove_all(partial, ec);
     throw;
@@ -258,6 +278,10 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
 
 int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    if (options.sequence.empty()) {
+      RequireWritable(options.output);
+      if (!options.truth.empty()) RequireWritable(options.truth);
+    }
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const Camera camera = LoadAnyCamera(options.camera);
     if (!options.sequence.empty()) {
@@ -294,8 +318,10 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
                                edges[s.edge].name);
     }
     const std::vector<std::uint8_t> png = vision::EncodePng(r.pixels, r.width, r.height);
-    WriteFileAtomically(options.output, std::string(png.begin(), png.end()));
-    if (!options.truth.empty()) WriteFileAtomically(options.truth, Dump(truth));
+    OutputFiles files;  // the image and its edges both, or neither
+    files.Stage(options.output, std::string(png.begin(), png.end()));
+    if (!options.truth.empty()) files.Stage(options.truth, Dump(truth));
+    files.Commit();
     out << fmt::format("rendered '{}' at {} x {} -> {}{}\n", graph.name, r.width, r.height,
                        options.output,
                        options.truth.empty() ? "" : ", its visible edges -> " + options.truth);

@@ -1,8 +1,14 @@
 #include "cli/image_support.h"
 
+#include <fcntl.h>
 #include <fmt/format.h>
+#include <unistd.h>
 
+#include <cerrno>
+#include <cstdio>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 #include <set>
@@ -20,6 +26,21 @@ constexpr std::uintmax_t kMaxImageBytes = 512ull << 20;
 
 }  // namespace
 
+QuietStderr::QuietStderr() {
+  std::fflush(stderr);
+  saved_ = ::dup(2);
+  const int null = ::open("/dev/null", O_WRONLY);
+  if (saved_ >= 0 && null >= 0) ::dup2(null, 2);
+  if (null >= 0) ::close(null);
+}
+
+QuietStderr::~QuietStderr() {
+  if (saved_ < 0) return;
+  std::fflush(stderr);
+  ::dup2(saved_, 2);
+  ::close(saved_);
+}
+
 cv::Mat ReadGrayImage(const std::string& path) {
   const SourceLocation where(path);
   std::error_code ec;
@@ -28,15 +49,26 @@ cv::Mat ReadGrayImage(const std::string& path) {
   const std::uintmax_t size = fs::file_size(path, ec);
   if (ec) throw InputError(where, "cannot open: " + ec.message());
   if (size == 0) throw InputError(where, "the file is empty");
+  // Said here: cv::imread returns an empty image for a file it may not read, as for a damaged one.
+  if (!std::ifstream(path, std::ios::binary)) {
+    throw InputError(where, fmt::format("cannot open: {}", std::strerror(errno)));
+  }
   if (size > kMaxImageBytes) {
     throw InputError(where, fmt::format("the file is larger than the {} MiB limit for images",
                                         kMaxImageBytes >> 20));
   }
   cv::Mat image;
   try {
+    const QuietStderr quiet;
     image = cv::imread(path, cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
-    throw InputError(where, fmt::format("cannot read the image: {}", e.msg));
+    // e.err, not e.msg: the msg is several lines naming OpenCV's own source file and line.
+    if (e.err.find("CV_IO_MAX_IMAGE_PIXELS") != std::string::npos) {
+      throw InputError(where,
+                       "cannot read the image: it has more pixels than OpenCV reads "
+                       "(CV_IO_MAX_IMAGE_PIXELS, 2^30 by default)");
+    }
+    throw InputError(where, fmt::format("cannot read the image: {}", e.err));
   }
   if (image.empty()) {
     throw InputError(where,

@@ -13,6 +13,19 @@ namespace cfuse::cli {
 // An image as 8-bit grey (colour converted), or an InputError at the file saying why not.
 cv::Mat ReadGrayImage(const std::string& path);
 
+// Silences stderr (file descriptor 2) while it lives: libpng and the video back ends print their
+// own lines there about a file that the InputError then describes in one located line.
+class QuietStderr {
+ public:
+  QuietStderr();
+  ~QuietStderr();
+  QuietStderr(const QuietStderr&) = delete;
+  QuietStderr& operator=(const QuietStderr&) = delete;
+
+ private:
+  int saved_ = -1;
+};
+
 // The PNG encoding of an image.
 std::string PngBytes(const cv::Mat& image);
 

@@ -92,7 +92,17 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
                         {"max_abs_residual", solution.summary.max_constraint_residual}};
   out["status"] = {{"converged", solution.summary.converged},
                    {"passes", solution.summary.passes},
-                   {"contradictions", solution.contradictions}};
+                   {"contradictions", solution.contradictions},
+                   {"invalid", solution.invalid}};
+  if (!solution.rejected.empty()) {
+    nlohmann::json rejected = nlohmann::json::array();
+    for (const Solution::Rejection& r : solution.rejected) {
+      rejected.push_back({{"measurement", r.measurement},
+                          {"label", set.points[r.measurement].label},
+                          {"sigmas", r.sigmas}});
+    }
+    out["status"]["rejected"] = rejected;
+  }
   out["time_ms"] = time_ms;
   return out;
 }

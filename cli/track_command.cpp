@@ -4,9 +4,12 @@
 #include <fnmatch.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <fstream>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <ostream>
@@ -15,6 +18,7 @@
 #include "cli/command_support.h"
 #include "cli/image_support.h"
 #include "interp/joint_estimates.h"
+#include "interp/solve.h"
 #include "kernel/error.h"
 #include "track/overlay.h"
 #include "track/tracker.h"
@@ -61,6 +65,11 @@ class FrameSource {
       } else if (!fs::exists(path, ec)) {
         throw InputError(where, "cannot open: no such file or directory");
       } else if (HasExtension(path, kVideoExtensions)) {
+        // Said here: the video back ends fail alike on a file they may not read.
+        if (!std::ifstream(spec, std::ios::binary)) {
+          throw InputError(where, fmt::format("cannot open: {}", std::strerror(errno)));
+        }
+        const QuietStderr quiet;  // each back end tried logs its failure there
         if (!video_.open(spec) || !video_.isOpened()) {
           throw InputError(where, "cannot open the video (no decoder for it, or damaged)");
         }
@@ -103,7 +112,12 @@ class FrameSource {
     const int i = next_++;
     if (is_video()) {
       cv::Mat frame;
-      if (!video_.read(frame) || frame.empty()) return false;
+      bool read = false;
+      {
+        const QuietStderr quiet;  // a decoder's complaints about a damaged frame
+        read = video_.read(frame);
+      }
+      if (!read || frame.empty()) return false;
       *name = fmt::format("{} frame {}", spec_, i);
       if (frame.channels() == 3) {
         cv::cvtColor(frame, *image, cv::COLOR_BGR2GRAY);
@@ -222,7 +236,14 @@ std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms,
 
 int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
+    // Refused before any frame is tracked, so that a bad track path leaves no overlays behind.
+    if (!options.output.empty()) RequireWritable(options.output);
+    if (std::error_code ec; !options.overlay.empty() && fs::exists(options.overlay, ec) &&
+                            !fs::is_directory(options.overlay, ec)) {
+      throw InputError(SourceLocation(options.overlay), "cannot write: it is not a directory");
+    }
     const ConstraintGraph graph = LoadAnyModel(options.model);
+    RequireEstimable(graph);
     const Camera camera = LoadAnyCamera(options.camera);
     if (camera.width <= 0 || camera.height <= 0) {
       throw InputError(SourceLocation(options.camera),
@@ -306,8 +327,12 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
       progress.Update(frame + 1, Median(ms));
     }
     progress.Finish();
-    if (frames == 0 && unreadable.empty()) {
-      throw InputError(SourceLocation(options.images), "the video holds no frames");
+    // Not one frame tracked: bad input, with nothing written (not a track of a header only).
+    if (frames == 0) {
+      throw InputError(SourceLocation(options.images),
+                       unreadable.empty() ? std::string("the video holds no frames")
+                                          : fmt::format("none of the {} frame(s) could be read",
+                                                        unreadable.size()));
     }
 
     if (options.output.empty()) {

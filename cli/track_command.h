@@ -6,8 +6,8 @@
 //
 // --images is a glob (wildcards in the file name only), a directory (its images, sorted), or a
 // video file. A frame that cannot be read is reported and skipped, and the track goes on
-// across it; the command then exits 2 after writing everything else. Exit statuses as for every
-// command (commands.h): 1 when no frame was verified.
+// across it; the command then exits 2 after writing everything else (nothing, when no frame could
+// be read). Exit statuses as for every command (commands.h): 1 when no frame was verified.
 #pragma once
 
 #include <iosfwd>

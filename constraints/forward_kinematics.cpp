@@ -15,7 +15,10 @@ std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
   std::map<std::string, double> given;
   std::vector<const JointValue*> mimics;  // checked once the leaders are known
   for (const JointValue& v : values) {
-    const auto& [name, value, where] = v;
+    // References, not a structured binding: clang before 16 cannot capture one in a lambda.
+    const std::string& name = v.name;
+    const double value = v.value;
+    const SourceLocation& where = v.where;
     if (!std::isfinite(value)) {
       throw InputError(where, fmt::format("joint '{}': the value is not finite", name));
     }

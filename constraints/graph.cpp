@@ -16,6 +16,10 @@ constexpr std::array<std::pair<JointType, const char*>, 7> kJointTypes = {{
 }  // namespace
 
 int Component::FindPoint(std::string_view point_name) const {
+  if (point_index.size() == points.size() && !points.empty()) {
+    const auto it = point_index.find(std::string(point_name));
+    return it == point_index.end() ? -1 : it->second;
+  }
   for (size_t i = 0; i < points.size(); ++i) {
     if (points[i].name == point_name) return static_cast<int>(i);
   }

@@ -15,6 +15,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <unordered_map>
 #include <vector>
 
 #include "kernel/error.h"
@@ -64,6 +65,10 @@ struct Component {
   std::vector<Face> faces;
   std::vector<ComponentFrame> frames;  // rigid only; names unique among components and frames
   SourceLocation where;
+  // Point name -> index into `points`, kept by ModelBuilder, so that resolving a label or a
+  // reference does not scan a component of 10^5 points. A graph assembled by hand may leave it
+  // empty: FindPoint then scans.
+  std::unordered_map<std::string, int> point_index;
 
   int FindPoint(std::string_view point_name) const;  // -1 if absent
 };

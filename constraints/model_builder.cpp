@@ -19,6 +19,11 @@ std::string Located(const SourceLocation& where) {
   return where.known() ? " (at " + where.ToString() + ")" : "";
 }
 
+// An edge's or face's name within its component ('/' cannot occur in a name).
+std::string PartKey(int component, const std::string& name) {
+  return fmt::format("{}/{}", component, name);
+}
+
 }  // namespace
 
 ModelBuilder::ModelBuilder(std::string model_name, std::string source) {
@@ -104,6 +109,13 @@ void ModelBuilder::IndexComponent(int component) {
   for (size_t i = 0; i < c.points.size(); ++i) {
     bare_points_[c.points[i].name].emplace_back(component, static_cast<int>(i));
   }
+  Component& indexed = graph_.components[component];
+  if (indexed.point_index.size() != indexed.points.size()) {
+    indexed.point_index.clear();
+    for (size_t i = 0; i < c.points.size(); ++i) indexed.point_index[c.points[i].name] = int(i);
+  }
+  for (const Edge& e : c.edges) edge_keys_.insert(PartKey(component, e.name));
+  for (const Face& f : c.faces) face_keys_.insert(PartKey(component, f.name));
 }
 
 void ModelBuilder::RequireUniqueComponent(const std::string& name,
@@ -196,6 +208,7 @@ int ModelBuilder::AddFeaturePoint(int component, const std::string& name,
   }
   ++num_feature_points_;
   c.points.push_back({name, position, where});
+  c.point_index[name] = static_cast<int>(c.points.size()) - 1;
   bare_points_[name].emplace_back(component, static_cast<int>(c.points.size()) - 1);
   return static_cast<int>(c.points.size()) - 1;
 }
@@ -226,39 +239,46 @@ void ModelBuilder::AddEdge(int component, const std::string& name, int a, int b,
                            const SourceLocation& where) {
   Component& c = graph_.components.at(component);
   RequireIdentifier(name, "edge", where);
-  for (const Edge& e : c.edges) {
-    if (e.name == name) {
-      throw InputError(where, fmt::format("duplicate edge name '{}' in component '{}', first "
-                                          "defined{}",
-                                          name, c.name, Located(e.where)));
+  if (edge_keys_.count(PartKey(component, name))) {
+    for (const Edge& e : c.edges) {
+      if (e.name == name) {
+        throw InputError(where, fmt::format("duplicate edge name '{}' in component '{}', first "
+                                            "defined{}",
+                                            name, c.name, Located(e.where)));
+      }
     }
   }
   if (a == b) throw InputError(where, fmt::format("edge '{}' joins a point to itself", name));
   c.edges.push_back({name, a, b, where});
+  edge_keys_.insert(PartKey(component, name));
 }
 
 void ModelBuilder::AddFace(int component, const std::string& name, std::vector<int> loop,
                            const SourceLocation& where) {
   Component& c = graph_.components.at(component);
   RequireIdentifier(name, "face", where);
-  for (const Face& f : c.faces) {
-    if (f.name == name) {
-      throw InputError(where, fmt::format("duplicate face name '{}' in component '{}', first "
-                                          "defined{}",
-                                          name, c.name, Located(f.where)));
+  if (face_keys_.count(PartKey(component, name))) {
+    for (const Face& f : c.faces) {
+      if (f.name == name) {
+        throw InputError(where, fmt::format("duplicate face name '{}' in component '{}', first "
+                                            "defined{}",
+                                            name, c.name, Located(f.where)));
+      }
     }
   }
   if (loop.size() < 3) {
     throw InputError(
         where, fmt::format("face '{}' has {} points; a face needs at least 3", name, loop.size()));
   }
-  for (size_t i = 0; i < loop.size(); ++i)
-    for (size_t j = i + 1; j < loop.size(); ++j)
-      if (loop[i] == loop[j]) {
-        throw InputError(
-            where, fmt::format("face '{}' visits point '{}' twice", name, c.points[loop[i]].name));
-      }
+  std::unordered_set<int> visited;
+  for (const int p : loop) {
+    if (!visited.insert(p).second) {
+      throw InputError(where,
+                       fmt::format("face '{}' visits point '{}' twice", name, c.points[p].name));
+    }
+  }
   c.faces.push_back({name, std::move(loop), where});
+  face_keys_.insert(PartKey(component, name));
 }
 
 int ModelBuilder::AddJoint(const JointSpec& spec) {

@@ -118,6 +118,7 @@ class ModelBuilder {
   std::unordered_map<std::string, int> component_index_, joint_index_, constraint_index_;
   std::unordered_map<std::string, std::pair<int, int>> frame_index_;  // (component, frame)
   std::unordered_set<std::string> merged_joint_names_;
+  std::unordered_set<std::string> edge_keys_, face_keys_;  // PartKey(component, name)
   std::unordered_map<std::string, std::vector<std::pair<int, int>>> bare_points_;
   int num_feature_points_ = 0;
   int tangent_dim_ = 0;

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <vector>
 
+#include "dsl/measurement_json.h"
 #include "dsl/yaml_document.h"
 #include "dsl/yaml_numbers.h"
 #include "kernel/measurements/camera_checks.h"
@@ -35,13 +36,8 @@ Eigen::MatrixXd Covariance(const Document& doc, const YAML::Node& entry, int n,
   Eigen::MatrixXd C(n, n);
   for (int i = 0; i < n; ++i)
     C.row(i) = Numbers(doc, cov[i], n, fmt::format("{} cov row {}", what, i + 1));
-  if ((C - C.transpose()).cwiseAbs().maxCoeff() > 1e-9 * C.cwiseAbs().maxCoeff()) {
-    doc.Fail(cov, fmt::format("{} cov is not symmetric", what));
-  }
-  const Eigen::LLT<Eigen::MatrixXd> llt(0.5 * (C + C.transpose()));
-  if (llt.info() != Eigen::Success || !(llt.matrixL().toDenseMatrix().diagonal().minCoeff() > 0)) {
-    doc.Fail(cov, fmt::format("{} cov is not positive definite", what));
-  }
+  if (const auto problem = CovarianceProblem(C))
+    doc.Fail(cov, fmt::format("{} cov {}", what, *problem));
   return 0.5 * (C + C.transpose());
 }
 
@@ -253,6 +249,11 @@ Camera ReadCameraText(const std::string& display, const std::string& text) {
 
 MeasurementSet Read(const std::string& display, const std::string& text) {
   CheckText(display, text, kMeasurementFile);
+  const auto read_camera = [&](std::string_view camera_json) {
+    const Document doc(display, std::string(camera_json), kMeasurementFile);
+    return ReadCamera(doc, doc.Parse());
+  };
+  if (auto set = ReadPlainJsonMeasurements(text, display, read_camera)) return std::move(*set);
   const Document doc(display, text, kMeasurementFile);
   const YAML::Node root = doc.Parse();
   if (!root.IsMap()) doc.Fail(root, "a measurement file is a mapping with 'points' (and 'camera')");

@@ -147,7 +147,9 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
     std::string prefix;
     if (item.IsMap()) {
       const auto entries = doc.Entries(item, "an include", {"file", "prefix"});
-      file_node = Document::Find(entries, "file");
+      // reset, not =: assigning to a YAML::Node writes through to the node it refers to, which
+      // would turn `item` itself into the missing 'file' and lose its place for the message.
+      file_node.reset(Document::Find(entries, "file"));
       if (!Present(file_node)) doc.Fail(item, "an include needs 'file'");
       if (YAML::Node p = Document::Find(entries, "prefix"); Present(p)) {
         prefix = doc.Scalar(p, "prefix");
@@ -192,8 +194,10 @@ void Loader::ReadIncludes(const Document& doc, const YAML::Node& node,
                                             "'{}' files (model files are .yaml or .yml)",
                                             relative, ext.empty() ? "extension-less" : ext));
       }
-      if (!fs::exists(display)) {
-        throw InputError(where, fmt::format("cannot open '{}': no such file", display));
+      // With an error code: a name too long for the file system would otherwise throw.
+      if (std::error_code ec; !fs::exists(display, ec)) {
+        throw InputError(where, fmt::format("cannot open '{}': {}", display,
+                                            ec ? ec.message() : "no such file"));
       }
       included = handler->second(display, where);
     }
@@ -568,7 +572,7 @@ void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
     std::string name;
     if (item.IsMap()) {
       const auto entries = doc.Entries(item, "a constraint", {"name", "expr"});
-      expr = Document::Find(entries, "expr");
+      expr.reset(Document::Find(entries, "expr"));  // not =, which writes through to `item`
       if (!Present(expr)) doc.Fail(item, "a constraint needs 'expr'");
       if (YAML::Node n = Document::Find(entries, "name"); Present(n)) {
         name = doc.Scalar(n, "a constraint name");

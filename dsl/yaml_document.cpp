@@ -1,5 +1,7 @@
 #include "dsl/yaml_document.h"
 
+#include <yaml-cpp/eventhandler.h>
+
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -41,53 +43,8 @@ std::string ReadTextFile(const std::string& path, const SourceLocation& where,
   return text;
 }
 
-SourceLocation LocationOfOffset(const std::string& file, std::string_view text, size_t offset) {
-  int line = 1, column = 1;
-  for (size_t i = 0; i < offset && i < text.size(); ++i) {
-    if (text[i] == '\n') {
-      ++line;
-      column = 1;
-    } else {
-      ++column;
-    }
-  }
-  return SourceLocation(file, line, column);
-}
-
 void CheckText(const std::string& file, std::string_view text, const FileKind& kind) {
-  const size_t nul = text.find('\0');
-  if (nul != std::string_view::npos) {
-    throw InputError(
-        SourceLocation(file),
-        fmt::format("is a binary file, not a YAML {} (NUL byte at offset {})", kind.name, nul));
-  }
-  // UTF-8 validation: YAML text must be UTF-8, strictly (RFC 3629: no overlong forms,
-  // surrogates or code points above U+10FFFF, which would otherwise pass into names and messages).
-  for (size_t i = 0; i < text.size();) {
-    const unsigned char c = static_cast<unsigned char>(text[i]);
-    const int extra = c < 0x80   ? 0
-                      : c < 0xC2 ? -1
-                      : c < 0xE0 ? 1
-                      : c < 0xF0 ? 2
-                      : c < 0xF5 ? 3
-                                 : -1;
-    // The range of the second byte; the later ones are 0x80..0xBF.
-    unsigned char lo = 0x80, hi = 0xBF;
-    if (c == 0xE0) lo = 0xA0;
-    if (c == 0xED) hi = 0x9F;
-    if (c == 0xF0) lo = 0x90;
-    if (c == 0xF4) hi = 0x8F;
-    bool ok = extra >= 0;
-    for (int k = 1; ok && k <= extra; ++k) {
-      const unsigned char b = i + k < text.size() ? static_cast<unsigned char>(text[i + k]) : 0;
-      ok = k == 1 ? (b >= lo && b <= hi) : (b >= 0x80 && b <= 0xBF);
-    }
-    if (!ok) {
-      throw InputError(LocationOfOffset(file, text, i),
-                       fmt::format("is not UTF-8 text (byte 0x{:02X}); is it a binary file?", c));
-    }
-    i += extra + 1;
-  }
+  RequireText(file, text, fmt::format("YAML {}", kind.name));
   bool blank = true;
   std::istringstream lines{std::string(text)};
   for (std::string line; std::getline(lines, line);) {
@@ -100,5 +57,82 @@ void CheckText(const std::string& file, std::string_view text, const FileKind& k
 
 // ---------------------------------------------------------------------------------------------
 // A YAML document with the helpers that turn shape errors into located messages.
+
+namespace {
+
+// Where each document of the stream starts, from yaml-cpp's events (no nodes are built).
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> starts;  // of each document's first node
+  std::vector<bool> has_content;   // a document that is more than a null
+  void OnDocumentStart(const YAML::Mark&) override { first_ = true; }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark& mark, YAML::anchor_t) override { Node(mark, false); }
+  void OnAlias(const YAML::Mark& mark, YAML::anchor_t) override { Node(mark, true); }
+  void OnScalar(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                const std::string&) override {
+    Node(mark, true);
+  }
+  void OnSequenceStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                       YAML::EmitterStyle::value) override {
+    Node(mark, true);
+  }
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark& mark, const std::string&, YAML::anchor_t,
+                  YAML::EmitterStyle::value) override {
+    Node(mark, true);
+  }
+  void OnMapEnd() override {}
+
+ private:
+  void Node(const YAML::Mark& mark, bool content) {
+    if (!first_) return;
+    first_ = false;
+    starts.push_back(mark);
+    has_content.push_back(content);
+  }
+  bool first_ = false;
+};
+
+}  // namespace
+
+YAML::Node Document::Parse() const {
+  const auto syntax_error = [&](const YAML::Mark& mark, const std::string& message) {
+    return InputError(SourceLocation(file_, mark.line + 1, mark.column + 1),
+                      fmt::format("YAML syntax error: {}", message));
+  };
+  try {
+    // yaml-cpp 0.7's LoadAll loops forever, allocating, on a token no rule takes at the top of a
+    // document (a ',' outside brackets: yaml-cpp issue 1040, fixed upstream after 0.7 by PR
+    // 1319): the parser reports an empty document there again and again without moving. So the
+    // documents are walked here first, and one that starts where the last one did is that token.
+    std::istringstream stream(text_);
+    YAML::Parser parser(stream);
+    DocumentStarts documents;
+    while (parser.HandleNextDocument(documents)) {
+      const size_t n = documents.starts.size();
+      if (n >= 2 && documents.starts[n - 1].pos == documents.starts[n - 2].pos) {
+        const YAML::Mark mark = documents.starts[n - 1];
+        const size_t pos = static_cast<size_t>(mark.pos);
+        throw syntax_error(mark, pos < text_.size() ? fmt::format("unexpected '{}'", text_[pos])
+                                                    : std::string("unexpected end of the file"));
+      }
+      // A second document after '---' would otherwise be dropped without a word.
+      if (n >= 2 && documents.has_content[n - 1]) {
+        throw InputError(SourceLocation(file_, documents.starts[n - 1].line + 1,
+                                        documents.starts[n - 1].column + 1),
+                         "a " + std::string(kind_.name) +
+                             " file holds one YAML document, this is a second one (after "
+                             "'---'); split it into files and use include");
+      }
+    }
+    return YAML::Load(text_);
+  } catch (const YAML::DeepRecursion& e) {
+    // yaml-cpp's own message for this is "bad file".
+    throw syntax_error(e.mark, fmt::format("nested more than {} levels deep", e.depth() - 1));
+  } catch (const YAML::ParserException& e) {
+    throw syntax_error(e.mark, e.msg);
+  }
+}
 
 }  // namespace cfuse::dsl

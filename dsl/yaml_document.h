@@ -29,7 +29,6 @@ std::string ReadTextFile(const std::string& path, const SourceLocation& where,
                          const FileKind& kind);
 // Refuses binary and non-UTF-8 text (with the position of the bad byte) and empty files.
 void CheckText(const std::string& file, std::string_view text, const FileKind& kind);
-SourceLocation LocationOfOffset(const std::string& file, std::string_view text, size_t offset);
 
 class Document {
  public:
@@ -38,29 +37,9 @@ class Document {
 
   const std::string& file() const { return file_; }
 
-  YAML::Node Parse() const {
-    std::vector<YAML::Node> documents;
-    try {
-      documents = YAML::LoadAll(text_);
-    } catch (const YAML::DeepRecursion& e) {
-      // yaml-cpp's own message for this is "bad file".
-      throw InputError(
-          SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
-          fmt::format("YAML syntax error: nested more than {} levels deep", e.depth() - 1));
-    } catch (const YAML::ParserException& e) {
-      throw InputError(SourceLocation(file_, e.mark.line + 1, e.mark.column + 1),
-                       fmt::format("YAML syntax error: {}", e.msg));
-    }
-    // A second document after '---' would otherwise be dropped without a word.
-    for (size_t i = 1; i < documents.size(); ++i) {
-      if (!documents[i].IsNull()) {
-        Fail(documents[i], "a " + std::string(kind_.name) +
-                               " file holds one YAML document, this is a second one (after "
-                               "'---'); split it into files and use include");
-      }
-    }
-    return documents.empty() ? YAML::Node(YAML::NodeType::Null) : documents[0];
-  }
+  // The file's one document. Refuses a syntax error, nesting beyond yaml-cpp's depth guard and a
+  // second document (after '---'), each at its place.
+  YAML::Node Parse() const;
 
   SourceLocation Loc(const YAML::Node& node) const {
     const YAML::Mark m = node.Mark();

@@ -141,6 +141,8 @@ void RequireText(std::string_view text, const std::string& file) {
   if (text.find('\0') != std::string_view::npos) {
     throw InputError(SourceLocation(file), "not a CAO file: it holds binary data");
   }
+  // Names go into model files and JSON, which are UTF-8.
+  cfuse::RequireText(file, text, "CAO file");
 }
 
 std::string ReadCaoFile(const std::string& path, const SourceLocation& included_from) {

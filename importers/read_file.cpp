@@ -2,6 +2,8 @@
 
 #include <fmt/format.h>
 
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 
@@ -21,7 +23,9 @@ std::string ReadImportedFile(const std::string& path, const SourceLocation& name
     throw InputError(SourceLocation(path), fmt::format("is a directory, not a {} file", format));
   }
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError(SourceLocation(path), "cannot open the file");
+  if (!in) {
+    throw InputError(SourceLocation(path), fmt::format("cannot open: {}", std::strerror(errno)));
+  }
   std::string text;
   char buffer[1 << 16];
   while (in.read(buffer, sizeof buffer) || in.gcount() > 0) {

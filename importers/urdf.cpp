@@ -13,6 +13,7 @@
 #include <fstream>
 #include <map>
 #include <optional>
+#include <regex>
 #include <vector>
 
 #include "constraints/model_builder.h"
@@ -323,10 +324,27 @@ class UrdfReader {
     if (!model) {
       std::string why;
       for (const std::string& e : messages.errors) why += (why.empty() ? "" : "; ") + e;
-      throw InputError(SourceLocation(file_), fmt::format("urdfdom cannot read this URDF{}{}",
-                                                          why.empty() ? "" : ": ", why));
+      throw InputError(UrdfdomLocation(why), fmt::format("urdfdom cannot read this URDF{}{}",
+                                                         why.empty() ? "" : ": ", why));
     }
     return model;
+  }
+
+  // urdfdom names the joint or link it refuses ("... for joint [j]") but not its line: the
+  // element of that name, else the file.
+  SourceLocation UrdfdomLocation(const std::string& why) const {
+    static const std::regex kNamed(R"((joint|link)\s*\[([^\]]*)\])", std::regex::icase);
+    std::smatch m;
+    if (!std::regex_search(why, m, kNamed)) return SourceLocation(file_);
+    const std::string name = m[2].str();
+    if (std::tolower(static_cast<unsigned char>(m[1].str()[0])) == 'j') {
+      for (const XmlJoint& j : joints_) {
+        if (j.name == name) return Loc(j.element, fmt::format("joint '{}'", name));
+      }
+    } else if (const auto it = link_index_.find(name); it != link_index_.end()) {
+      return Loc(links_[it->second], fmt::format("link '{}'", name));
+    }
+    return SourceLocation(file_);
   }
 
   // Per link: the link whose component holds it (the nearest ancestor joined by a joint that
@@ -534,6 +552,9 @@ class UrdfReader {
 }  // namespace
 
 ConstraintGraph ImportUrdfFromString(std::string_view xml, const std::string& display_name) {
+  // TinyXML takes any bytes into names, which `cfuse import` would write into a model file that
+  // no reader accepts (found by fuzz/urdf_fuzz.cpp).
+  RequireText(display_name, xml, "URDF file");
   return UrdfReader(display_name, xml).Read();
 }
 

@@ -1745,6 +1745,13 @@ std::vector<std::array<int, 3>> PlanCache::Triangles(
 
 Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set,
                          const InterpretOptions& options) {
+  RequireEstimable(graph);
+  if (set.points.size() > static_cast<size_t>(kMaxInterpretedPoints)) {
+    throw InputError(SourceLocation(set.source),
+                     fmt::format("{} measurements: interpretation takes at most {} (its time and "
+                                 "memory grow with their square); crop or subsample the data",
+                                 set.points.size(), kMaxInterpretedPoints));
+  }
   Interpretation out;
   std::vector<bool> use(graph.constraints.size(), true);
   if (!options.use_constraints_between_components) {

@@ -114,6 +114,7 @@ Values Configuration(const ConstraintGraph& g, const SimulateOptions& options, s
 }  // namespace
 
 Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options) {
+  RequireEstimable(graph);
   std::mt19937 rng(options.seed);
   const double extent = ModelExtent(graph);
   Values config = Configuration(graph, options, rng, extent);

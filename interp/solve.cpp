@@ -5,9 +5,11 @@
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
+#include <cmath>
 
 #include "interp/closed_form_pose.h"
 #include "interp/schedule.h"
+#include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
 #include "kernel/fusion_order.h"
 #include "kernel/measurements/image_point.h"
@@ -106,6 +108,38 @@ Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
   return v.poses[g.blocks[g.components[component].block].index];
 }
 
+// The residual of a labelled measurement: its model point's position or projection minus it.
+std::shared_ptr<const ResidualFunction> MeasurementResidual(const ConstraintGraph& graph,
+                                                            const MeasurementSet& set,
+                                                            const ResolvedLabel& r) {
+  const MeasuredPoint& m = set.points[r.measurement];
+  const Component& comp = graph.components[r.component];
+  if (m.is_3d) {
+    if (comp.rigid) {
+      return std::make_shared<Point3Residual>(comp.points[r.feature].position, m.xyz);
+    }
+    return std::make_shared<Point3Residual>(m.xyz);
+  }
+  if (comp.rigid) {
+    return std::make_shared<ImagePointResidual>(*set.camera, comp.points[r.feature].position, m.uv);
+  }
+  return std::make_shared<ImagePointResidual>(*set.camera, m.uv);
+}
+
+// rᵀ R⁻¹ r of a labelled measurement at `values` (R its noise), or infinity when r is not
+// finite.
+double NormalisedSquare(const ConstraintGraph& graph, const MeasurementSet& set,
+                        const ResolvedLabel& r, const Values& values) {
+  const MeasuredPoint& m = set.points[r.measurement];
+  const int block = graph.components[r.component].block;
+  Eigen::VectorXd residual;
+  EvaluateResidual(*MeasurementResidual(graph, set, r), graph.blocks, {&block, 1}, values,
+                   &residual, nullptr);
+  if (!residual.allFinite()) return INFINITY;
+  if (m.is_3d) return residual.dot(m.cov3.llt().solve(Eigen::Vector3d(residual)));
+  return residual.dot(m.cov2.llt().solve(Eigen::Vector2d(residual)));
+}
+
 }  // namespace
 
 void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* values) {
@@ -115,7 +149,8 @@ void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* valu
     if (graph.FindComponent(p.name) >= 0) continue;
     const auto frame = graph.FindFrame(p.name);
     if (!frame) throw InputError(p.where, fmt::format("unknown component '{}'", p.name));
-    const auto& [c, component_from_frame] = *frame;
+    const int c = frame->first;  // not a structured binding: captured below (clang < 16)
+    const Rigid3d& component_from_frame = frame->second;
     const bool given =
         std::any_of(guess.components.begin(), guess.components.end(),
                     [&](const NamedPose& q) { return q.name == graph.components[c].name; });
@@ -315,11 +350,27 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
   return initial;
 }
 
-Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
-               const SolveOptions& options) {
-  Solution solution;
-  solution.labels = ResolveLabels(graph, set);
-  solution.extent = ModelExtent(graph);
+void RequireEstimable(const ConstraintGraph& graph) {
+  const int dim = graph.tangent_dim();
+  if (dim <= kMaxStateDim) return;
+  throw InputError(SourceLocation(graph.source),
+                   fmt::format("model '{}' has a state of {} dimensions ({} components, {} "
+                               "constraints); the estimator's dense covariance is limited to {} "
+                               "dimensions ({:.2f} GB)",
+                               graph.name, dim, graph.components.size(), graph.constraints.size(),
+                               kMaxStateDim, 8.0 * kMaxStateDim * kMaxStateDim / 1e9));
+}
+
+namespace {
+
+// Steps 2-4 for the measurements of `labels`: solution's state, summary, contradictions and
+// invalid factors. An image measurement whose point is at or behind the camera at the start is
+// not fused, and reported in `invalid`.
+void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
+                   const SolveOptions& options, const std::vector<ResolvedLabel>& labels,
+                   Solution* solution) {
+  solution->contradictions.clear();
+  solution->invalid.clear();
 
   // A guess that places every component makes the closed-form starts moot (the interpretation
   // tree's final solves pass one).
@@ -332,8 +383,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
         };
         return named(options.guess->components) || named(options.guess->points);
       });
-  Values initial =
-      guess_covers_all ? graph.nominal : ClosedFormStart(graph, set, solution.labels, options);
+  Values initial = guess_covers_all ? graph.nominal : ClosedFormStart(graph, set, labels, options);
 
   Values unplaced;  // the start before unmeasured points are placed: the fallback below
   if (options.guess) {
@@ -342,7 +392,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     unplaced = initial;
     MatchSlacks(graph, &unplaced);
     std::vector<bool> measured(graph.components.size(), false);
-    for (const ResolvedLabel& r : solution.labels) measured[r.component] = true;
+    for (const ResolvedLabel& r : labels) measured[r.component] = true;
     for (size_t c = 0; c < graph.components.size(); ++c) {
       if (graph.components[c].rigid) measured[c] = true;  // placed by their closed forms
     }
@@ -352,27 +402,27 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
 
   // 3. The prior, and 4. the factors.
   PriorScale scale;
-  scale.position = options.prior_extent_factor * solution.extent;
+  scale.position = options.prior_extent_factor * solution->extent;
   scale.rotation = options.prior_rotation_sigma;
   scale.slack = options.prior_slack_sigma;
-  solution.state = MakePrior(graph.blocks, initial, scale);
+  solution->state = MakePrior(graph.blocks, initial, scale);
   // One factor per single point measurement, and one per rigid component stacking all its
   // measurements (measurements/stacked.h), in the order of their first measurement.
   std::vector<Factor> factors;
   std::vector<int> component_factor(graph.components.size(), -1);
   std::vector<std::vector<std::shared_ptr<const ResidualFunction>>> parts;
   std::vector<std::vector<Eigen::MatrixXd>> noises;
-  for (const ResolvedLabel& r : solution.labels) {
+  for (const ResolvedLabel& r : labels) {
     const MeasuredPoint& m = set.points[r.measurement];
     const Component& comp = graph.components[r.component];
-    std::shared_ptr<const ResidualFunction> f;
-    if (m.is_3d) {
-      f = comp.rigid ? std::make_shared<Point3Residual>(comp.points[r.feature].position, m.xyz)
-                     : std::make_shared<Point3Residual>(m.xyz);
-    } else {
-      f = comp.rigid ? std::make_shared<ImagePointResidual>(*set.camera,
-                                                            comp.points[r.feature].position, m.uv)
-                     : std::make_shared<ImagePointResidual>(*set.camera, m.uv);
+    const std::shared_ptr<const ResidualFunction> f = MeasurementResidual(graph, set, r);
+    if (!m.is_3d && !std::isfinite(NormalisedSquare(graph, set, r, initial))) {
+      // No projection there (Camera::Project). In its component's stacked factor it would make
+      // every measurement of the component invalid, and the component silently unmeasured.
+      solution->invalid.push_back(fmt::format(
+          "measurement {} ({}): its model point is at or behind the camera at the start",
+          r.measurement, m.label));
+      continue;
     }
     const Eigen::MatrixXd noise = m.is_3d ? Eigen::MatrixXd(m.cov3) : Eigen::MatrixXd(m.cov2);
     if (!comp.rigid) {
@@ -414,20 +464,20 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   }
   factors = std::move(ordered);
   SequenceOptions sequence = options.sequence;
-  sequence.constraint_tolerance = 1e-8 * solution.extent;
-  solution.summary = FuseSequence(factors, &solution.state, sequence);
-  if (!solution.summary.converged && !options.guess) {
+  sequence.constraint_tolerance = 1e-8 * solution->extent;
+  solution->summary = FuseSequence(factors, &solution->state, sequence);
+  if (!solution->summary.converged && !options.guess) {
     // Placing unmeasured points can still pick the wrong one of two places their constraints
     // allow (a mirror image about their neighbours); the unplaced start is the second try.
     GaussianState state = MakePrior(graph.blocks, unplaced, scale);
     SequenceSummary summary = FuseSequence(factors, &state, sequence);
     if (summary.converged ||
-        summary.max_constraint_residual < solution.summary.max_constraint_residual) {
-      solution.state = std::move(state);
-      solution.summary = std::move(summary);
+        summary.max_constraint_residual < solution->summary.max_constraint_residual) {
+      solution->state = std::move(state);
+      solution->summary = std::move(summary);
     }
   }
-  if (!solution.summary.converged && !sequence.gauss_newton_from_start) {
+  if (!solution->summary.converged && !sequence.gauss_newton_from_start) {
     // Noisy data on short lever arms (the lamp's hinge points 30 mm apart under 10 mm noise)
     // can throw the first pass's local iterations far off, each constraint linearised where
     // the ones before it left the estimate. A Gauss-Newton pass from the start, every factor
@@ -437,15 +487,50 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     GaussianState state = MakePrior(graph.blocks, initial, scale);
     SequenceSummary summary = FuseSequence(factors, &state, from_start);
     if (summary.converged ||
-        summary.max_constraint_residual < solution.summary.max_constraint_residual) {
-      solution.state = std::move(state);
-      solution.summary = std::move(summary);
+        summary.max_constraint_residual < solution->summary.max_constraint_residual) {
+      solution->state = std::move(state);
+      solution->summary = std::move(summary);
     }
   }
   for (size_t i = 0; i < factors.size(); ++i) {
-    if (solution.summary.fusions[i].status == FusionSummary::Status::kContradiction) {
-      solution.contradictions.push_back(factors[i].name);
+    if (solution->summary.fusions[i].status == FusionSummary::Status::kContradiction) {
+      solution->contradictions.push_back(factors[i].name);
     }
+    if (solution->summary.fusions[i].status == FusionSummary::Status::kInvalid) {
+      solution->invalid.push_back(factors[i].name + ": not finite at the estimate");
+    }
+  }
+}
+
+}  // namespace
+
+Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
+               const SolveOptions& options) {
+  RequireEstimable(graph);
+  Solution solution;
+  solution.labels = ResolveLabels(graph, set);
+  solution.extent = ModelExtent(graph);
+  std::vector<ResolvedLabel> used = solution.labels;
+  const size_t max_rejected = used.size() / 5;
+  const double gate_3d = ChiSquareQuantile(1 - 1e-9, 3), gate_2d = ChiSquareQuantile(1 - 1e-9, 2);
+  while (true) {
+    SolveLabelled(graph, set, options, used, &solution);
+    if (!options.reject_outliers || solution.rejected.size() >= max_rejected) break;
+    // The measurement farthest beyond its gate; one at a time, as an outlier drags the others.
+    int worst = -1;
+    double worst_excess = 1, worst_square = 0;
+    for (size_t i = 0; i < used.size(); ++i) {
+      const double square = NormalisedSquare(graph, set, used[i], solution.state.mean);
+      const double excess = square / (set.points[used[i].measurement].is_3d ? gate_3d : gate_2d);
+      if (std::isfinite(square) && excess > worst_excess) {
+        worst = static_cast<int>(i);
+        worst_excess = excess;
+        worst_square = square;
+      }
+    }
+    if (worst < 0) break;
+    solution.rejected.push_back({used[worst].measurement, std::sqrt(worst_square)});
+    used.erase(used.begin() + worst);
   }
   return solution;
 }

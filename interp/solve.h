@@ -54,6 +54,11 @@ struct SolveOptions {
   // Starting poses and points by name (e.g. a previous result): they replace the closed-form
   // starts for what they name. An unknown name is an InputError at its entry.
   const PoseSet* guess = nullptr;
+  // Gross outliers: while the measurement farthest from the estimate in its own noise is
+  // beyond the chi-square gate at 1 - 1e-9 (6.8 sigma in 3D, 6.4 in an image), it is left out
+  // and the rest solved again, a fifth of them at most (Solution::rejected). Off by default:
+  // the interpretation tree gates its matches itself.
+  bool reject_outliers = false;
 };
 
 // A labelled measurement resolved to its model point.
@@ -68,8 +73,23 @@ struct Solution {
   SequenceSummary summary;
   std::vector<ResolvedLabel> labels;
   std::vector<std::string> contradictions;  // names of factors refused as contradictory
-  double extent = 0;                        // the model's size, for relative tolerances
+  // Factors and measurements not fused because their residual or its Jacobian was not finite
+  // (an image point at or behind the camera, a zero length in a distance), and why.
+  std::vector<std::string> invalid;
+  struct Rejection {
+    int measurement = -1;  // index into MeasurementSet::points
+    double sigmas = 0;     // its distance from the estimate in its own noise, (rᵀ R⁻¹ r)^½
+  };
+  std::vector<Rejection> rejected;  // gross outliers left out (SolveOptions::reject_outliers)
+  double extent = 0;                // the model's size, for relative tolerances
 };
+
+// The estimator's covariance is dense: 8 n² bytes for a state of n tangent dimensions (a rigid
+// component 6, a single point 3, a slack 1). A model beyond kMaxStateDim (1.15 GB) is refused by
+// Solve, Interpret, Simulate and the tracker up front, as an InputError naming the model file,
+// rather than failing in an allocation; `check` and `fk` have no such limit.
+inline constexpr int kMaxStateDim = 12000;
+void RequireEstimable(const ConstraintGraph& graph);
 
 // Resolves every label; an unknown or ambiguous label is an InputError at the measurement.
 std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const MeasurementSet& set);

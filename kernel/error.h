@@ -9,6 +9,7 @@
 
 #include <stdexcept>
 #include <string>
+#include <string_view>
 
 namespace cfuse {
 
@@ -40,5 +41,15 @@ class InputError : public std::runtime_error {
   SourceLocation where_;
   std::string message_;
 };
+
+// Refuses bytes that are not text: a NUL byte ("is a binary file, not a WHAT (NUL byte at
+// offset N)") or a sequence that is not UTF-8 (RFC 3629, strictly: no overlong forms,
+// surrogates or code points above U+10FFFF), at its line and column. Every reader of text runs
+// it first: parsers in other libraries are not safe on such bytes (cv::FileStorage crashes on a
+// NUL; TinyXML passes invalid UTF-8 into names that would then be written out).
+void RequireText(const std::string& file, std::string_view text, const std::string& what);
+
+// The line and column (1-based, in bytes) of a byte offset in a text.
+SourceLocation LocationOfOffset(const std::string& file, std::string_view text, size_t offset);
 
 }  // namespace cfuse

@@ -86,12 +86,19 @@ struct Workspace {
   std::vector<int> position;        // where each of `index` sits in `support`
   std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init,
       innovation;
-  std::vector<double> U, lambda, W, HP, A, z, Su;
+  std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, V, T, G, PG, Ti, v, Sv, signs;
   std::vector<int> keep;
   std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
   Eigen::LLT<Eigen::MatrixXd> llt;
 };
+
+// Rows of a constraint whose prior covariance (scaled to unit diagonal) has an eigenvalue below
+// this are combinations of the others: roundoff in an eigenvalue of that matrix is about 1e-16.
+constexpr double kRankTolerance = 1e-12;
+// Rows whose prior covariance (scaled to unit diagonal) has all its eigenvalues above this are
+// far from dependent.
+constexpr double kWellConditioned = 1e-6;
 
 // P(S, S) -= W Wᵀ over the support S, one column of W at a time. Each rank-one step updates
 // both P(i, j) and P(j, i) with the same product w_i w_j (multiplication commutes exactly in
@@ -102,11 +109,11 @@ struct Workspace {
 // CPU's features, so the library still runs on any x86-64.
 __attribute__((target_clones("arch=x86-64-v3", "default")))
 #endif
-void SubtractOuterProductColumns(const Run* runs, int num_runs, const double* w, double* P,
-                                 long ld) {
+void SubtractOuterProductColumns(const Run* runs, int num_runs, const double* w, double sign,
+                                 double* P, long ld) {
   for (int c = 0; c < num_runs; ++c) {
     for (int j = 0; j < runs[c].size; ++j) {
-      const double wj = w[runs[c].at + j];
+      const double wj = sign * w[runs[c].at + j];  // sign is ±1: exact, P stays symmetric
       double* column = P + (runs[c].first + j) * ld;
       for (int r = 0; r < num_runs; ++r) {
         double* out = column + runs[r].first;
@@ -117,11 +124,12 @@ void SubtractOuterProductColumns(const Run* runs, int num_runs, const double* w,
   }
 }
 
+// P(S, S) -= Σ_l sign_l w_l w_lᵀ, w_l the columns of W, sign_l = ±1 (all +1 if `signs` is null).
 void SubtractOuterProduct(const std::vector<Run>& runs, const Eigen::Map<Eigen::MatrixXd>& W,
-                          Eigen::MatrixXd* P) {
+                          const double* signs, Eigen::MatrixXd* P) {
   for (int l = 0; l < W.cols(); ++l) {
     SubtractOuterProductColumns(runs.data(), static_cast<int>(runs.size()), W.col(l).data(),
-                                P->data(), P->rows());
+                                signs ? signs[l] : 1.0, P->data(), P->rows());
   }
 }
 
@@ -158,6 +166,27 @@ void SmallProductTransposed(const Eigen::Map<Eigen::MatrixXd>& A,
       double sum = 0;
       for (int l = 0; l < A.cols(); ++l) sum += A(i, l) * B(j, l);
       (*C)(i, j) = sum;
+    }
+  }
+}
+
+// C = Aᵀ B for small dynamic matrices.
+void SmallTransposedProduct(const Eigen::Map<Eigen::MatrixXd>& A,
+                            const Eigen::Map<Eigen::MatrixXd>& B, Eigen::Map<Eigen::MatrixXd>* C) {
+  for (int j = 0; j < B.cols(); ++j) {
+    for (int i = 0; i < A.cols(); ++i) (*C)(i, j) = A.col(i).dot(B.col(j));
+  }
+}
+
+// out = Gᵀ P G (P symmetric), exactly symmetric; `storage` holds P G.
+void QuadraticForm(const Eigen::Map<Eigen::MatrixXd>& G, const Eigen::Map<Eigen::MatrixXd>& P,
+                   std::vector<double>* storage, Eigen::Map<Eigen::MatrixXd>* out) {
+  Eigen::Map<Eigen::MatrixXd> PG =
+      Scratch(storage, static_cast<int>(P.rows()), static_cast<int>(G.cols()));
+  SmallProduct(P, G, &PG);
+  for (int j = 0; j < G.cols(); ++j) {
+    for (int i = 0; i <= j; ++i) {
+      (*out)(i, j) = (*out)(j, i) = 0.5 * (G.col(i).dot(PG.col(j)) + G.col(j).dot(PG.col(i)));
     }
   }
 }
@@ -276,14 +305,23 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   Eigen::Map<Eigen::VectorXd> next = ScratchVector(&ws.next, s);
   Eigen::Map<Eigen::MatrixXd> U = Scratch(&ws.U, m, m);
   Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws.lambda, m);
-  // Each iteration whitens the directions it fuses: with A (a x k) such that H P0 Hᵀ + R is
-  // the identity in them, W = P0 Hᵀ A (s x k on the support) and z = Aᵀ-side innovation (k),
-  // the step is δ = W z and the covariance update P0 - W Wᵀ. For a measurement A = Hᵀ L⁻ᵀ with
-  // S = L Lᵀ (S >= R > 0: no direction can be degenerate); for a constraint A = Hᵀ U Λ^(-1/2)
-  // over the kept eigen-directions of S.
+  // Each iteration whitens the directions it fuses: with B (m x k) such that Bᵀ (H P0 Hᵀ + R) B
+  // is the identity, A = Hᵀ B (a x k), W = P0 A (s x k on the support) and z = Bᵀ innovation
+  // (k), the step is δ = W z and the covariance update P0 - W Wᵀ (in Joseph form, below). For
+  // a measurement B = L⁻ᵀ with S = L Lᵀ (S >= R > 0: no direction can be degenerate); for a
+  // constraint B = t ρ^(-1/2) over its kept directions t (below).
   const bool linear = f.is_linear();
   int k = 0;
-  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+  // Once the iterate has moved by more than the tolerance, its final linearisation is
+  // evaluated once more, for the covariance only: one from the Jacobian at the previous iterate
+  // left the factor's directions at the new mean nearly (not exactly) determined, and a later
+  // update along them amplified roundoff by the inverse of their tiny variance (tests/stress:
+  // eigenvalues down to -0.03 x the prior's trace, and a constraint fused again at once still
+  // moved the state). Not in a Gauss-Newton pass
+  // (max_iterations 1), whose updates must all be linearised at one point, nor where the
+  // covariance is discarded (FusionOptions::covariance_at_final_iterate).
+  bool finishing = false;
+  for (int iteration = 0; iteration < options.max_iterations || finishing; ++iteration) {
     EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
     if (!r.allFinite() || !H.allFinite()) {
       summary.status = FusionSummary::Status::kInvalid;
@@ -293,13 +331,13 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     // where Eigen's product kernels spend more on dispatch and packing than on arithmetic:
     // plain loops (as Ceres' small_blas.h does), through scratch storage.
     Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws.HP, m, a);
-    SmallProduct(H, P_aa, &HP);
-    SmallProductTransposed(HP, H, &S_mat);
     for (int i = 0; i < m; ++i) innovation(i) = H.row(i).dot(delta_a - mu_a) - r(i);
 
     Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
     Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
     if (!factor.is_constraint()) {
+      SmallProduct(H, P_aa, &HP);
+      SmallProductTransposed(HP, H, &S_mat);
       S_mat += factor.noise;
       ws.llt.compute(S_mat);
       if (ws.llt.info() != Eigen::Success) {
@@ -311,32 +349,93 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       z = innovation;
       ForwardSubstitute(ws.llt.matrixLLT(), &A, &z);
       if (iteration == 0) summary.rows_fused = m;
+      // M = Bᵀ S B = L⁻¹ S L⁻ᵀ, for the Joseph form below (S symmetric: (S L⁻ᵀ)ᵀ = L⁻¹ S).
+      Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, m, m), Y = Scratch(&ws.B, m, m);
+      Eigen::Map<Eigen::VectorXd> unused = ScratchVector(&ws.Su, m);
+      Y = S_mat;
+      ForwardSubstitute(ws.llt.matrixLLT(), &Y, &unused);
+      M = Y.transpose();
+      ForwardSubstitute(ws.llt.matrixLLT(), &M, &unused);
     } else {
-      // The directions of the residual space, with their variances: the row itself for a
-      // single row, else the eigenvectors of S. A direction whose variance is negligible next
-      // to its variance under the initial prior is already determined.
+      // The directions of the residual space, each normalised to unit variance under the
+      // initial prior (tᵀ S_init t = 1), with ρ = tᵀ S t the fraction of it left: a direction
+      // with ρ negligible is already determined. Rows that are (numerically) combinations of
+      // others have no direction of their own: found on the rows scaled to unit prior variance,
+      // where every eigenvalue is relative to 1. Without that test their direction had roundoff
+      // for both variances and, when the ratio passed the tolerance, was fused with a garbage
+      // gain that broke the covariance's positive semidefiniteness (tests/stress).
       HP.noalias() = H * prior_a.asDiagonal();
       SmallProductTransposed(HP, H, &S_init);
-      if (m == 1) {
-        U(0, 0) = 1;
-        lambda(0) = S_mat(0, 0);
-      } else {
-        ws.eigen.compute(S_mat);  // reads the lower triangle only
-        U = ws.eigen.eigenvectors();
-        lambda = ws.eigen.eigenvalues();
+      Eigen::Map<Eigen::VectorXd> d = ScratchVector(&ws.Su, m);
+      for (int i = 0; i < m; ++i) d(i) = S_init(i, i) > 0 ? 1 / std::sqrt(S_init(i, i)) : 0.0;
+      for (int j = 0; j < m; ++j) {
+        for (int i = 0; i < m; ++i) S_init(i, j) *= d(i) * d(j);
       }
-      ws.keep.clear();
+      // T (m x rank): the directions, or (below) a basis of them.
+      Eigen::Map<Eigen::MatrixXd> T = Scratch(&ws.T, m, m);
+      int rank = 0;
       double contradiction = 0;
-      Eigen::Map<Eigen::VectorXd> Su = ScratchVector(&ws.Su, m);
-      for (int i = 0; i < m; ++i) {
-        Su.noalias() = S_init * U.col(i);
-        const double initial = U.col(i).dot(Su);
-        if (initial <= 0 || lambda(i) <= options.degeneracy_tolerance * initial) {
-          // Already determined: the linearised factor is consistent only if its innovation
-          // has no component along u (the state cannot move along Hᵀu).
-          if (iteration == 0 && initial > 0) {
+      if (m == 1) {
+        T(0, 0) = d(0);
+        rank = d(0) > 0 ? 1 : 0;
+      } else {
+        ws.eigen.compute(S_init);
+        for (int i = 0; i < m; ++i) {
+          const double mu = ws.eigen.eigenvalues()(i);
+          if (mu > kRankTolerance * m) {
+            T.col(rank++) = d.cwiseProduct(ws.eigen.eigenvectors().col(i)) / std::sqrt(mu);
+          } else if (iteration == 0) {
+            // Consistent only if the rows' innovations are the same combination (measured in
+            // the rows' prior deviations).
             contradiction =
-                std::max(contradiction, std::abs(U.col(i).dot(innovation)) / std::sqrt(initial));
+                std::max(contradiction,
+                         std::abs(d.cwiseProduct(ws.eigen.eigenvectors().col(i)).dot(innovation)));
+          }
+        }
+      }
+      // The variances on T, Tᵀ S T, as Gᵀ P0 G with G = Hᵀ T: forming S = H P0 Hᵀ first loses
+      // them to cancellation where rows are nearly dependent (T then large).
+      Eigen::Map<Eigen::MatrixXd> Tr = Scratch(&ws.T, m, rank), G = Scratch(&ws.G, a, rank);
+      Eigen::Map<Eigen::MatrixXd> Sr = Scratch(&ws.C, rank, rank);
+      if (m > 1 && rank == m && ws.eigen.eigenvalues()(0) > kWellConditioned) {
+        // Rows far from dependent: the eigenvectors u of S, accurate there (the directions of
+        // the filter before issue 8, with which the interpretation tree was tuned).
+        SmallProduct(H, P_aa, &HP);
+        SmallProductTransposed(HP, H, &S_mat);
+        ws.eigen.compute(S_mat);
+        Eigen::Map<Eigen::VectorXd> v = ScratchVector(&ws.v, m), Sv = ScratchVector(&ws.Sv, m);
+        for (int j = 0; j < m; ++j) {
+          v = ws.eigen.eigenvectors().col(j).cwiseQuotient(d);  // uᵀ S_init u = vᵀ (scaled) v
+          Sv.noalias() = S_init * v;
+          Tr.col(j) = ws.eigen.eigenvectors().col(j) / std::sqrt(v.dot(Sv));
+        }
+        SmallTransposedProduct(H, Tr, &G);
+        QuadraticForm(G, P_aa, &ws.PG, &Sr);
+        U.topLeftCorner(m, m).setIdentity();
+        lambda.head(m) = Sr.diagonal();
+      } else {
+        // Else the generalised eigenvectors of (S, S_init) on the rows' range.
+        SmallTransposedProduct(H, Tr, &G);
+        QuadraticForm(G, P_aa, &ws.PG, &Sr);
+        if (rank == 1) {
+          U(0, 0) = 1;
+          lambda(0) = Sr(0, 0);
+        } else if (rank > 1) {
+          ws.eigen.compute(Sr);
+          U.topLeftCorner(rank, rank) = ws.eigen.eigenvectors();
+          lambda.head(rank) = ws.eigen.eigenvalues();
+        }
+      }
+      // The innovation on T, for the contradiction test.
+      Eigen::Map<Eigen::VectorXd> Ti = ScratchVector(&ws.Ti, rank);
+      for (int j = 0; j < rank; ++j) Ti(j) = Tr.col(j).dot(innovation);
+      ws.keep.clear();
+      for (int i = 0; i < rank; ++i) {
+        if (lambda(i) <= options.degeneracy_tolerance) {
+          // Already determined: the linearised factor is consistent only if its innovation
+          // has no component along t (the state cannot move along Hᵀt).
+          if (iteration == 0) {
+            contradiction = std::max(contradiction, std::abs(U.col(i).head(rank).dot(Ti)));
           }
           continue;
         }
@@ -356,45 +455,106 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       }
       // Later iterations keep the directions of the first (a direction's status cannot change
       // between them without a contradiction, which the first iteration refused).
+      // Nothing left to fuse at the final iterate: the previous linearisation's covariance
+      // update stands (its A and W are still in place).
+      if (finishing && ws.keep.empty()) break;
       k = static_cast<int>(ws.keep.size());
+      Eigen::Map<Eigen::MatrixXd> B = Scratch(&ws.B, m, k);
       for (int j = 0; j < k; ++j) {
         const double scale = 1 / std::sqrt(lambda(ws.keep[j]));
-        A.col(j).noalias() = H.transpose() * U.col(ws.keep[j]) * scale;
-        z(j) = U.col(ws.keep[j]).dot(innovation) * scale;
+        B.col(j).setZero();
+        A.col(j).setZero();
+        for (int l = 0; l < rank; ++l) {
+          const double q = U(l, ws.keep[j]) * scale;
+          B.col(j) += q * Tr.col(l);
+          A.col(j) += q * G.col(l);
+        }
+        z(j) = B.col(j).dot(innovation);
+      }
+      // M = Aᵀ P0 A from the variances on T, for the Joseph form below.
+      Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, k, k);
+      for (int j = 0; j < k; ++j) {
+        for (int i = 0; i <= j; ++i) {
+          double sum = 0;
+          for (int l = 0; l < rank; ++l) {
+            for (int n = 0; n < rank; ++n) sum += U(l, ws.keep[i]) * Sr(l, n) * U(n, ws.keep[j]);
+          }
+          M(i, j) = M(j, i) = sum / std::sqrt(lambda(ws.keep[i]) * lambda(ws.keep[j]));
+        }
       }
     }
-    if (iteration == 0) summary.innovation_nis = z.head(k).squaredNorm();
-    summary.final_nis = z.head(k).squaredNorm();
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
     if (k == 1) {
       W.col(0).noalias() = P_sa * A.col(0);
-      next = mu + W.col(0) * z(0);
     } else {
       W.noalias() = P_sa * A.leftCols(k);
-      next = mu;
-      next.noalias() += W * z.head(k);
     }
+    if (finishing) break;
+    if (iteration == 0) summary.innovation_nis = z.head(k).squaredNorm();
+    summary.final_nis = z.head(k).squaredNorm();
+    next = mu;
+    next.noalias() += W * z.head(k);
     const double step = (next - delta).lpNorm<Eigen::Infinity>();
     delta = next;
     for (int j = 0; j < a; ++j) delta_a(j) = delta(ws.position[j]);
     summary.iterations = iteration + 1;
     // An affine residual is solved exactly by its first update.
     if (linear || step <= options.step_tolerance * (1 + delta.lpNorm<Eigen::Infinity>())) break;
+    const bool relinearise = options.max_iterations > 1 && options.covariance_at_final_iterate;
     if (factor.is_constraint()) {
       // A constraint met at the new iterate needs no further step (the next would be of the
-      // size of its residual): checking costs one residual, not a Jacobian.
+      // size of its residual): checking costs one residual.
       EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), nullptr);
-      if (r.allFinite() && r.lpNorm<Eigen::Infinity>() <= options.residual_tolerance) break;
+      if (r.allFinite() && r.lpNorm<Eigen::Infinity>() <= options.residual_tolerance) {
+        if (!relinearise) break;
+        finishing = true;
+        continue;
+      }
     }
-    if (iteration + 1 == options.max_iterations && options.max_iterations > 1) {
+    if (iteration + 1 == options.max_iterations) {
+      if (!relinearise) break;
       summary.status = FusionSummary::Status::kNotConverged;
+      finishing = true;
     }
   }
 
-  // The covariance for the final linearisation: P0 - K Hu P0 with the optimal gain, i.e.
-  // P0 - W Wᵀ (equal to the Joseph form for this gain, at a third of the cost), on the
-  // support only.
-  SubtractOuterProduct(ws.runs, Scratch(&ws.W, s, k), &state->covariance);
+  // The covariance for the final linearisation, on the support only, in Joseph form:
+  // (I - K H) P0 (I - K H)ᵀ + K R Kᵀ = P0 - W (2I - M) Wᵀ with M = Bᵀ (H P0 Hᵀ + R) B (above),
+  // which is I for the exact optimal gain and then gives P0 - W Wᵀ. Roundoff makes the gain
+  // inexact (a nearly determined or nearly dependent direction); P0 - W Wᵀ then lost positive
+  // semidefiniteness (tests/stress: eigenvalues down to -16 x the prior's trace, with the other
+  // two fixes of issue 8), while the error of the Joseph form is of second order in the gain's.
+  if (k > 0) {
+    Eigen::Map<Eigen::MatrixXd> C = Scratch(&ws.C, k, k);
+    C = 2 * Eigen::MatrixXd::Identity(k, k) - Scratch(&ws.M, k, k);
+    // P0 -= W (2I - M) Wᵀ as rank-one steps: 2I - M = L Lᵀ (it is near I), P0 -= (W L)(W L)ᵀ;
+    // else 2I - M = Q diag(c) Qᵀ, P0 -= Σ_j sign(c_j) v_j v_jᵀ with v_j = W q_j |c_j|^½.
+    Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k), V = Scratch(&ws.V, s, k);
+    Eigen::Map<Eigen::VectorXd> signs = ScratchVector(&ws.signs, k);
+    signs.setOnes();
+    if ((C - Eigen::MatrixXd::Identity(k, k)).cwiseAbs().maxCoeff() <= 1e-15) {
+      // The gain exact to roundoff: P0 - W Wᵀ.
+    } else if (k == 1) {
+      signs(0) = C(0, 0) < 0 ? -1 : 1;
+      W *= std::sqrt(std::abs(C(0, 0)));
+    } else if (ws.llt.compute(C).info() == Eigen::Success) {
+      const auto& L = ws.llt.matrixLLT();  // lower triangle
+      for (int j = 0; j < k; ++j) {
+        V.col(j) = W.col(j) * L(j, j);
+        for (int l = j + 1; l < k; ++l) V.col(j) += W.col(l) * L(l, j);
+      }
+      W = V;
+    } else {
+      ws.eigen.compute(C);
+      V.noalias() = W * ws.eigen.eigenvectors();
+      for (int j = 0; j < k; ++j) {
+        const double c = ws.eigen.eigenvalues()(j);
+        signs(j) = c < 0 ? -1 : 1;
+        W.col(j) = V.col(j) * std::sqrt(std::abs(c));
+      }
+    }
+    SubtractOuterProduct(ws.runs, W, signs.data(), &state->covariance);
+  }
 
   if (offset) {
     // The sequence carries the estimate in the chart; RetractOffset() moves it at the end.
@@ -562,7 +722,10 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
     summary.fusions.clear();
     if (pass == 0 && !options.gauss_newton_from_start) {
       // The first pass fuses each factor with local iterations about the estimate so far.
-      for (const Factor& f : factors) summary.fusions.push_back(Fuse(f, state, options.fusion));
+      // Its covariance is discarded: the Gauss-Newton passes that follow start from the prior.
+      FusionOptions first = options.fusion;
+      first.covariance_at_final_iterate = false;
+      for (const Factor& f : factors) summary.fusions.push_back(Fuse(f, state, first));
     } else {
       // Later passes linearise every factor once, about the previous estimate: the sequence
       // of linear updates is then one Gauss-Newton step of the whole problem.

@@ -12,8 +12,9 @@
 //   until the step is below tolerance (the local iterations of §5.1, i.e. Gauss-Newton on the
 //   prior plus this factor), then
 //   mean      x1 = x0 ⊞ δ*,
-//   covariance P1 = P0 - K H P0, symmetrised (with the optimal gain this equals the Joseph
-//              form (I - K H) P0 (I - K H)ᵀ + K R Kᵀ at a third of the cost),
+//   covariance the Joseph form P1 = (I - K H) P0 (I - K H)ᵀ + K R Kᵀ with H at the final
+//              iterate (P0 - K H P0 for the exact optimal gain; the Joseph form stays positive
+//              semidefinite when roundoff makes the gain inexact),
 //   reset     P1 <- G P1 Gᵀ, G = Jr(δθ*) on every rotation block, I elsewhere, which moves the
 //             covariance from the chart at x0 to the chart at x1.
 //
@@ -22,11 +23,15 @@
 // number of fused rows, and stays exactly symmetric. No allocation happens per update once
 // the scratch buffers have grown.
 //
-// Degenerate directions. Let S = U Λ Uᵀ. A direction u of the factor whose variance uᵀ S u is
-// negligible next to its variance under the initial prior (uᵀ S_init u, S_init = H P_init Hᵀ)
-// is already determined by constraints fused before: it is not inverted. If the factor's
-// innovation along it is zero the rows are redundant and skipped; if not, the factor
-// contradicts what was fused before, and the update is refused with status kContradiction.
+// Degenerate directions. A direction u of the factor whose variance uᵀ S u is negligible next
+// to its variance under the initial prior (uᵀ S_init u, S_init = H P_init Hᵀ) is already
+// determined by constraints fused before: it is not inverted. The directions are the
+// eigenvectors of S = U Λ Uᵀ, or, where the rows are nearly dependent, the generalised
+// eigenvectors of (S, S_init) on the rows' range (rows that are numerically combinations of
+// others have no direction of their own). If the factor's innovation along a determined
+// direction (or a dependent combination of rows) is zero the rows are redundant and skipped;
+// if not, the factor contradicts what was fused before, and the update is refused with status
+// kContradiction.
 #pragma once
 
 #include <Eigen/Core>
@@ -66,6 +71,9 @@ struct FusionOptions {
   double residual_tolerance = 1e-9;       // a constraint's max |r| at which its iterations stop
   double degeneracy_tolerance = 1e-12;    // uᵀ S u / uᵀ S_init u below it: already determined
   double contradiction_tolerance = 1e-7;  // |uᵀ r| / sqrt(uᵀ S_init u) above it: contradiction
+  // The covariance from the Jacobian at the final iterate (one more evaluation when the
+  // iterations moved): off only where it is discarded anyway (FuseSequence's first pass).
+  bool covariance_at_final_iterate = true;
 };
 
 struct FusionSummary {

@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # Installs cfuse's build and test dependencies from Debian 12's packages.
 # Idempotent: apt-get skips what is already installed. Run as root (or with sudo).
+#   --fuzz  also clang and its libFuzzer runtime, for scripts/fuzz.sh only
 set -euo pipefail
 
 packages=(
@@ -19,6 +20,9 @@ packages=(
   libvisp-mbt-dev      # (bench only: ViSP's edge tracker as a peer)
   graphviz             # renders `cfuse graph` output in tests
 )
+if [ "${1:-}" = "--fuzz" ]; then
+  packages+=(clang libclang-rt-14-dev)  # libFuzzer, with ASan and UBSan (scripts/fuzz.sh)
+fi
 
 SUDO=""
 if [ "$(id -u)" -ne 0 ]; then SUDO="sudo"; fi

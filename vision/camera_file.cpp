@@ -6,6 +6,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <opencv2/core.hpp>
 #include <regex>
 #include <string_view>
@@ -217,14 +218,32 @@ bool IsOpenCvStorage(const std::string& path) {
 
 Camera ReadOpenCvCamera(const std::string& path) {
   CheckReadable(path);
+  std::ifstream in(path, std::ios::binary);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  if (in.bad()) {
+    throw InputError(SourceLocation(path), fmt::format("cannot read: {}", std::strerror(errno)));
+  }
+  return ReadOpenCvCameraFromString(text, path);
+}
+
+Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& display_name) {
+  if (text.size() > kMaxCameraFileBytes) {
+    throw InputError(SourceLocation(display_name),
+                     fmt::format("file is larger than the {} MiB limit for camera files",
+                                 kMaxCameraFileBytes >> 20));
+  }
+  // cv::FileStorage (OpenCV 4.6) dereferences null on a NUL byte in the text (found by
+  // fuzz/camera_fuzz.cpp), so it only ever sees text.
+  RequireText(display_name, text, "camera file");
   try {
-    const cv::FileStorage storage(path, cv::FileStorage::READ);
+    const cv::FileStorage storage(std::string(text),
+                                  cv::FileStorage::READ | cv::FileStorage::MEMORY);
     if (!storage.isOpened()) {
-      throw InputError(SourceLocation(path), "cv::FileStorage cannot open it");
+      throw InputError(SourceLocation(display_name), "cv::FileStorage cannot open it");
     }
-    return Read(storage, path);
+    return Read(storage, display_name);
   } catch (const cv::Exception& e) {
-    throw SyntaxError(path, e);
+    throw SyntaxError(display_name, e);
   }
 }
 

@@ -23,6 +23,7 @@
 #pragma once
 
 #include <string>
+#include <string_view>
 
 #include "kernel/measurements/camera.h"
 
@@ -36,5 +37,9 @@ bool IsOpenCvStorage(const std::string& path);
 
 // The pinhole camera of an OpenCV calibration file.
 Camera ReadOpenCvCamera(const std::string& path);
+
+// The same from text in memory (any of the three formats); `display_name` stands for the file in
+// messages.
+Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& display_name);
 
 }  // namespace cfuse::vision

@@ -51,7 +51,7 @@ struct Rendering {
   std::vector<TruthSegment> truth;   // the visible parts of the model's edges
 };
 
-// Throws std::invalid_argument for a camera without a size, or with distortion.
+// Throws std::invalid_argument for a camera without a size, over 2^28 pixels, or with distortion.
 Rendering Render(const ConstraintGraph& graph, const Values& values, const Camera& camera,
                  const RenderOptions& options = {});
 

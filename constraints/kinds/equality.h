@@ -26,6 +26,9 @@ class EqualityResidual : public AutoDiffResidual<EqualityResidual> {
   // lhs and rhs of the same type (checked by the caller).
   static ConstraintParts Create(ExprPtr lhs, ExprPtr rhs, const KindContext& ctx) {
     BoundArgs args = BindArgs({std::move(lhs), std::move(rhs)}, ctx, false);
+    // Coincident points at the nominal geometry are refused with the others not differentiable
+    // there (ModelBuilder::AddConstraint).
+    if (NominalValues(args, ctx)[0].x() != 0) RefuseZeroLength(*args.exprs[0], *args.exprs[1]);
     std::vector<int> blocks = args.blocks;
     return {std::make_shared<EqualityResidual>(std::move(args)), std::move(blocks)};
   }

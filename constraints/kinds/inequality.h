@@ -35,6 +35,7 @@ class InequalityResidual : public AutoDiffResidual<InequalityResidual> {
                                 double* nominal_slack) {
     BoundArgs args = BindArgs({std::move(lhs), std::move(rhs)}, ctx, true);
     const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
+    if (!greater && v[0].x() != 0) RefuseZeroLength(*args.exprs[0], *args.exprs[1]);
     *nominal_slack = NominalSlack(greater ? v[0].x() - v[1].x() : v[1].x() - v[0].x());
     std::vector<int> blocks = args.blocks;
     return {std::make_shared<InequalityResidual>(std::move(args), greater), std::move(blocks),

@@ -62,6 +62,17 @@ void RequireNonZero(const std::vector<Eigen::Vector3d>& values, const char* what
   }
 }
 
+void RefuseZeroLength(const Expr& lhs, const Expr& rhs) {
+  const bool length = lhs.op == Expr::Op::kCall &&
+                      (lhs.function == Function::kDistance || lhs.function == Function::kNorm);
+  if (length && rhs.op == Expr::Op::kConstant && rhs.constant.isZero()) {
+    throw KindError(
+        "a distance or a norm required to be 0 holds only where it has no derivative, so the "
+        "estimator cannot fuse it: write the points equal (a == b) or the vector zero "
+        "(u == [0, 0, 0])");
+  }
+}
+
 std::pair<std::array<int, 3>, double> LargestTriangle(const std::vector<Eigen::Vector3d>& p) {
   const int n = static_cast<int>(p.size());
   std::pair<std::array<int, 3>, double> best{{0, 1, 2}, -1.0};

@@ -57,6 +57,11 @@ std::string DescribeCall(const char* name, const std::vector<ExprPtr>& exprs,
 // undefined there).
 void RequireNonZero(const std::vector<Eigen::Vector3d>& values, const char* what);
 
+// Refuses `distance(a, b)` or `norm(u)` required to be 0 (== 0, <= 0): it holds only where the
+// length has no derivative, so a solve could never fuse it (`a == b` says the same, with a
+// derivative everywhere).
+void RefuseZeroLength(const Expr& lhs, const Expr& rhs);
+
 // The triple of points spanning the largest triangle (ties to the first in argument order)
 // and its doubled area; the pair farthest apart and its distance; the largest distance from
 // the first point (the group's extent).

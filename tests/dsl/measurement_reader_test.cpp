@@ -2,10 +2,16 @@
 // the line and column, the entry and the problem.
 #include "dsl/measurement_reader.h"
 
+#include <fmt/format.h>
+
 #include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <vector>
 
+#include "dsl/measurement_json.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {
@@ -96,6 +102,97 @@ TEST_CASE("measurements: every malformed file is refused where and how it should
   testing::ExpectRefused(
       std::begin(cases), std::end(cases),
       [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
+}
+
+// The JSON fast path (dsl/measurement_json.h) must agree with the YAML reader on everything it
+// accepts. A trailing YAML comment hides a file from the fast path (it is not JSON) without
+// moving anything, so reading `text + "\n#"` is the YAML reader's answer.
+MeasurementSet ReadByYaml(const std::string& text, const std::string& file) {
+  return ReadMeasurementsFromString(text + "\n#", file);
+}
+
+std::string Slurp(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+TEST_CASE("measurements: the JSON fast path reads as the YAML reader does", "[dsl]") {
+  std::vector<std::string> texts;
+  for (const auto& entry :
+       std::filesystem::directory_iterator(testing::SourcePath("fuzz/seeds/measurements"))) {
+    if (entry.path().extension() == ".json") texts.push_back(Slurp(entry.path().string()));
+  }
+  texts.push_back(Slurp(testing::SourcePath("tests/data/lamp-measurements.json")));
+  REQUIRE(texts.size() >= 5);
+  // Pretty-printed, with tabs, in any key order, camera after the points, nulls.
+  std::string many = "{\n\t\"points\": [\n";
+  for (int i = 0; i < 2000; ++i) {
+    many += fmt::format("{}  {{\"label\": {}, \"sigma\": {}, \"xyz\": [{}, -{}e-3, {}]}}",
+                        i ? ",\n" : "", i % 3 ? fmt::format("\"p{}\"", i) : "null",
+                        0.001 * (1 + i % 7), i, i, 1.5 + 1e-4 * i);
+  }
+  many +=
+      ",\n{\"uv\": [1, 2], \"cov\": [[2, 0.5], [0.5, 1]]}],\n \"camera\": {\"fx\": 800, "
+      "\"fy\": 800, \"cx\": 320, \"cy\": 240, \"width\": 640, \"height\": 480}}\n";
+  texts.push_back(many);
+  for (const std::string& text : texts) {
+    const MeasurementSet fast = ReadMeasurementsFromString(text, "m.json");
+    const MeasurementSet yaml = ReadByYaml(text, "m.json");
+    CHECK(SameMeasurements(fast, yaml));
+  }
+  // The fast path takes these itself (the comparison above would pass if it gave up on all).
+  const auto read_camera = [](std::string_view) { return testing::Pinhole(); };
+  for (const std::string& text : texts)
+    CHECK(ReadPlainJsonMeasurements(text, "m.json", read_camera));
+}
+
+TEST_CASE("measurements: malformed JSON gets the YAML reader's message", "[dsl]") {
+  // The fast path gives up on each; the message is the one a YAML spelling gets.
+  const testing::BadCase cases[] = {
+      {R"({"points": [{"xyz": [1, 2], "sigma": 0.1}]})", 1, 21,
+       "points[0] xyz must be a list of 3 numbers, got 2"},
+      {R"({"points": [{"xyz": [1, 2, 3]}]})", 1, 13, "points[0] needs either 'sigma' or 'cov'"},
+      {R"({"points": [{"xyz": [1, 2, 3], "sigma": -0.1}]})", 1, 41,
+       "points[0] sigma must be positive, got -0.1"},
+      {R"({"points": [{"xyz": [1, 2, 3], "cov": [[1,2,0],[0,1,0],[0,0,1]]}]})", 1, 39,
+       "points[0] cov is not symmetric"},
+      {R"({"points": [{"xyz": [1, 2, 3], "sigma": 1, "label": ""}]})", 1, 53,
+       "points[0] label is empty"},
+      {R"({"points": [{"uv": [1, 2], "sigma": 1}]})", 1, 13,
+       "points[0] is an image point but the file has no 'camera'"},
+      {R"({"points": [{"xyz": [1, 2, 3], "sigma": 1, "lable": "p"}]})", 1, 44,
+       "unknown key 'lable' in points[0]"},
+      {R"({"points": [{"xyz": [1, 2, 3], "sigma": 1, "sigma": 2}]})", 1, 44,
+       "duplicate key 'sigma' in points[0]"},
+      {R"({"points": [{"xyz": [1, 2, 1e999], "sigma": 1}]})", 1, 28,
+       "points[0] xyz must be finite"},
+      {R"({"points": [{"xyz": [1, 2, 3], "sigma": 1}], "points": []})", 1, 46,
+       "duplicate key 'points' in the measurements"},
+      {R"({"camera": {"fx": 800}, "points": []})", 1, 12, "the pinhole camera needs 'fy'"},
+  };
+  testing::ExpectRefused(
+      std::begin(cases), std::end(cases),
+      [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
+}
+
+TEST_CASE("measurements: a million points are read, one more is refused", "[dsl]") {
+  std::string text = "{\"points\": [";
+  text.reserve(27u * kMaxMeasuredPoints + 64);
+  for (int i = 0; i < kMaxMeasuredPoints; ++i) text += "{\"xyz\":[0,0,1],\"sigma\":1},";
+  text.pop_back();
+  const MeasurementSet set = ReadMeasurementsFromString(text + "]}", "big.json");
+  CHECK(set.points.size() == size_t(kMaxMeasuredPoints));
+  CHECK(set.points.back().where.line == 1);
+  CHECK(set.points.back().where.column == 12 + 26 * (kMaxMeasuredPoints - 1) + 1);
+  try {
+    ReadMeasurementsFromString(text + ",{}]}", "big.json");
+    FAIL("accepted");
+  } catch (const InputError& e) {
+    CHECK(e.where().ToString() == "big.json:1:12");
+    CHECK(e.message() == "more than 1000000 points");
+  }
 }
 
 TEST_CASE("measurements: missing, empty and binary files", "[dsl]") {

@@ -341,6 +341,10 @@ TEST_CASE("urdf: malformed files are refused at the element", "[importers]") {
       {"<robot name=\"r\"><link name=\"a\">\n<visual><geometry><cone radius=\"1\"/></geometry>"
        "</visual></link></robot>",
        2, 19, "link 'a'", "unknown geometry <cone>"},
+      // Latin-1, not UTF-8: `import` would write it into a model no reader takes (found by
+      // fuzz/urdf_fuzz.cpp).
+      {"<robot name=\"r\">\n<link name=\"caf\xE9\"/></robot>", 2, 16, "",
+       "is not UTF-8 text (byte 0xE9)"},
   };
   for (const Case& c : cases) {
     INFO(c.xml);

@@ -270,12 +270,14 @@ TEST_CASE("OpenCV camera files: every inconsistent file is refused by node and r
   }
 }
 
+using namespace std::string_view_literals;
+
 TEST_CASE("OpenCV camera files: syntax errors carry OpenCV's line; missing files", "[vision]") {
   const TempDir temp("syntax");
   const fs::path& dir = temp.path;
   struct Case {
     const char* name;
-    const char* text;
+    std::string_view text;  // may hold a NUL
     int line;
     const char* message;
   };
@@ -287,10 +289,13 @@ TEST_CASE("OpenCV camera files: syntax errors carry OpenCV's line; missing files
       {"bad.xml",
        "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>640</image_width>\n"
        "<camera_matrix type_id=\"opencv-matrix\">\n<rows>3</rows></cols>\n</opencv_storage>\n",
-       5, "syntax error (cv::FileStorage): Mismatched closing tag"}};
+       5, "syntax error (cv::FileStorage): Mismatched closing tag"},
+      // cv::FileStorage crashes on a NUL byte (found by fuzz/camera_fuzz.cpp): refused first.
+      {"nul.xml", "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>\0</image_width>\n"sv, 0,
+       "is a binary file, not a camera file (NUL byte at offset 52)"}};
   for (const Case& c : cases) {
     const std::string path = (dir / c.name).string();
-    std::ofstream(path, std::ios::binary) << c.text;
+    std::ofstream(path, std::ios::binary).write(c.text.data(), std::streamsize(c.text.size()));
     INFO(c.text);
     try {
       ReadOpenCvCamera(path);
