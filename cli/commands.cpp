@@ -139,7 +139,7 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
     for (const Solution::Rejection& r : solution.rejected) {
       err << fmt::format(
           "cfuse: warning: measurement {} ({}) left out as an outlier: {:.3g} standard "
-          "deviations from the estimate of the others\n",
+          "deviations from the estimate\n",
           r.measurement, set.points[r.measurement].label, r.sigmas);
     }
     if (!solution.invalid.empty()) {

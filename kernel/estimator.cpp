@@ -86,7 +86,7 @@ struct Workspace {
   std::vector<int> position;        // where each of `index` sits in `support`
   std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init,
       innovation;
-  std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, V, T, G, PG, Ti, v, Sv, signs;
+  std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv, signs;
   std::vector<int> keep;
   std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
@@ -317,9 +317,9 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   // left the factor's directions at the new mean nearly (not exactly) determined, and a later
   // update along them amplified roundoff by the inverse of their tiny variance (tests/stress:
   // eigenvalues down to -0.03 x the prior's trace, and a constraint fused again at once still
-  // moved the state). Not in a Gauss-Newton pass
-  // (max_iterations 1), whose updates must all be linearised at one point, nor where the
-  // covariance is discarded (FusionOptions::covariance_at_final_iterate).
+  // moved the state). Not in a Gauss-Newton pass (max_iterations 1), whose updates must all be
+  // linearised at one point, nor where the covariance is discarded
+  // (FusionOptions::covariance_at_final_iterate).
   bool finishing = false;
   for (int iteration = 0; iteration < options.max_iterations || finishing; ++iteration) {
     EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
@@ -349,13 +349,17 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       z = innovation;
       ForwardSubstitute(ws.llt.matrixLLT(), &A, &z);
       if (iteration == 0) summary.rows_fused = m;
-      // M = Bᵀ S B = L⁻¹ S L⁻ᵀ, for the Joseph form below (S symmetric: (S L⁻ᵀ)ᵀ = L⁻¹ S).
-      Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, m, m), Y = Scratch(&ws.B, m, m);
+      // M = Aᵀ P0 A + Bᵀ R B with B = L⁻ᵀ, for the Joseph form below (from the A used: its
+      // roundoff is what the Joseph form absorbs).
+      Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, m, m), B = Scratch(&ws.B, m, m);
       Eigen::Map<Eigen::VectorXd> unused = ScratchVector(&ws.Su, m);
-      Y = S_mat;
-      ForwardSubstitute(ws.llt.matrixLLT(), &Y, &unused);
-      M = Y.transpose();
-      ForwardSubstitute(ws.llt.matrixLLT(), &M, &unused);
+      B.setIdentity();
+      ForwardSubstitute(ws.llt.matrixLLT(), &B, &unused);
+      Eigen::Map<Eigen::MatrixXd> R = Scratch(&ws.R, m, m), BRB = Scratch(&ws.BRB, m, m);
+      R = factor.noise;
+      QuadraticForm(A, P_aa, &ws.PG, &M);
+      QuadraticForm(B, R, &ws.PG, &BRB);
+      M += BRB;
     } else {
       // The directions of the residual space, each normalised to unit variance under the
       // initial prior (tᵀ S_init t = 1), with ρ = tᵀ S t the fraction of it left: a direction
@@ -471,17 +475,10 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
         }
         z(j) = B.col(j).dot(innovation);
       }
-      // M = Aᵀ P0 A from the variances on T, for the Joseph form below.
+      // M = Aᵀ P0 A, for the Joseph form below: from the A used, as roundoff in it is what the
+      // Joseph form absorbs.
       Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, k, k);
-      for (int j = 0; j < k; ++j) {
-        for (int i = 0; i <= j; ++i) {
-          double sum = 0;
-          for (int l = 0; l < rank; ++l) {
-            for (int n = 0; n < rank; ++n) sum += U(l, ws.keep[i]) * Sr(l, n) * U(n, ws.keep[j]);
-          }
-          M(i, j) = M(j, i) = sum / std::sqrt(lambda(ws.keep[i]) * lambda(ws.keep[j]));
-        }
-      }
+      QuadraticForm(Scratch(&ws.A, a, k), P_aa, &ws.PG, &M);
     }
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
     if (k == 1) {
@@ -522,8 +519,8 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   // (I - K H) P0 (I - K H)ᵀ + K R Kᵀ = P0 - W (2I - M) Wᵀ with M = Bᵀ (H P0 Hᵀ + R) B (above),
   // which is I for the exact optimal gain and then gives P0 - W Wᵀ. Roundoff makes the gain
   // inexact (a nearly determined or nearly dependent direction); P0 - W Wᵀ then lost positive
-  // semidefiniteness (tests/stress: eigenvalues down to -16 x the prior's trace, with the other
-  // two fixes of issue 8), while the error of the Joseph form is of second order in the gain's.
+  // semidefiniteness (tests/stress, before issue 8: eigenvalues down to -16 x the prior's
+  // trace), while the error of the Joseph form is of second order in the gain's.
   if (k > 0) {
     Eigen::Map<Eigen::MatrixXd> C = Scratch(&ws.C, k, k);
     C = 2 * Eigen::MatrixXd::Identity(k, k) - Scratch(&ws.M, k, k);
@@ -532,9 +529,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k), V = Scratch(&ws.V, s, k);
     Eigen::Map<Eigen::VectorXd> signs = ScratchVector(&ws.signs, k);
     signs.setOnes();
-    if ((C - Eigen::MatrixXd::Identity(k, k)).cwiseAbs().maxCoeff() <= 1e-15) {
-      // The gain exact to roundoff: P0 - W Wᵀ.
-    } else if (k == 1) {
+    if (k == 1) {
       signs(0) = C(0, 0) < 0 ? -1 : 1;
       W *= std::sqrt(std::abs(C(0, 0)));
     } else if (ws.llt.compute(C).info() == Eigen::Success) {

@@ -188,7 +188,7 @@ Values RandomValues(std::mt19937& rng, double spread) {
 // direction, whose variance is a fraction ρ of its prior's, amplifies the roundoff already in
 // the covariance by about 1/ρ, and ρ may be as small as FusionOptions::degeneracy_tolerance,
 // 1e-12 (a limit of the covariance form, which a square-root filter would not have): 1e-4 of
-// the prior's trace. So every check must be within 10 x that, and 98 % of them within 1e-9.
+// the prior's trace. So every check must be within 10 x that, and 99 % of them within 1e-9.
 // Before the fixes of issue 8 this test found eigenvalues down to -16 x the prior's trace, 77 %
 // of the checks within 1e-9, and 123 constraints fused again where they had just been fused
 // changing the state.
@@ -316,7 +316,7 @@ TEST_CASE("stress: 10^5 random updates keep the covariance symmetric, PSD and fi
   }
   INFO("worst negative eigenvalue / prior trace " << worst << "; within roundoff "
                                                   << within_roundoff << " of " << checks);
-  CHECK(within_roundoff >= 0.98 * checks);
+  CHECK(within_roundoff >= 0.99 * checks);
   // Every path was taken: fused, partly redundant, redundant, contradiction, invalid.
   for (int status : {0, 1, 2, 3, 5}) CHECK(statuses[status] > 0);
   CHECK(changed_by_refusion == 0);
