@@ -60,7 +60,8 @@ struct RawPoint {
 
 class Handler : public nlohmann::json_sax<nlohmann::json> {
  public:
-  Handler(std::string_view text, const char** furthest) : text_(text), furthest_(furthest) {}
+  Handler(std::string_view text, const std::string& display, const char** furthest)
+      : text_(text), display_(display), furthest_(furthest) {}
 
   // Where each piece is; the result when the parse succeeded.
   std::vector<MeasuredPoint> points;
@@ -288,7 +289,7 @@ class Handler : public nlohmann::json_sax<nlohmann::json> {
         ++column_;
       }
     }
-    p.where = SourceLocation("", line_, column_, fmt::format("points[{}]", points.size()));
+    p.where = SourceLocation(display_, line_, column_, fmt::format("points[{}]", points.size()));
     if (points.size() >= static_cast<size_t>(kMaxMeasuredPoints)) {
       too_many = true;
       return false;
@@ -298,6 +299,7 @@ class Handler : public nlohmann::json_sax<nlohmann::json> {
   }
 
   std::string_view text_;
+  const std::string& display_;  // the file, for each point's location
   const char** furthest_;
   State state_ = State::kStart;
   std::string key_;
@@ -340,7 +342,7 @@ std::optional<MeasurementSet> ReadPlainJsonMeasurements(
     return std::nullopt;
   }
   const char* furthest = text.data();
-  Handler handler(text, &furthest);
+  Handler handler(text, display, &furthest);
   const bool parsed =
       nlohmann::json::sax_parse(CountingIterator(text.data(), &furthest),
                                 CountingIterator(text.data() + text.size(), &furthest), &handler);
@@ -361,7 +363,6 @@ std::optional<MeasurementSet> ReadPlainJsonMeasurements(
   }
   if (handler.any_uv && !set.camera) return std::nullopt;
   set.points = std::move(handler.points);
-  for (MeasuredPoint& p : set.points) p.where.file = display;
   return set;
 }
 

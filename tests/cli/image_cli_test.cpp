@@ -104,7 +104,9 @@ TEST_CASE("cli: render, segments and project agree on a rendered box", "[cli]") 
     seg.roi = "100,50,400,300";
     std::ostringstream json;
     REQUIRE(RunSegments(seg, json, err) == 0);
-    for (const nlohmann::json& x : nlohmann::json::parse(json.str())["segments"]) {
+    // Named: a range-for over a member of a temporary outlives the temporary.
+    const nlohmann::json parsed = nlohmann::json::parse(json.str());
+    for (const nlohmann::json& x : parsed["segments"]) {
       CHECK(x[0].get<double>() >= 99);
       CHECK(x[2].get<double>() <= 500.5);
     }

@@ -1,9 +1,15 @@
 #!/usr/bin/env bash
 # Installs the build in $1 to a temporary prefix and builds a consumer project that finds it
-# with find_package(cfuse) and links cfuse::cfuse, then runs it on an example model.
+# with find_package(cfuse) and links cfuse::cfuse, then runs it on an example model. $3, if
+# not empty, names the sanitizers the build was made with: the consumer links their runtime too.
 set -euo pipefail
 build=$1
 src=$2
+sanitize=${3:-}
+flags=()
+if [ -n "$sanitize" ]; then
+  flags=("-DCMAKE_CXX_FLAGS=-fsanitize=$sanitize" "-DCMAKE_EXE_LINKER_FLAGS=-fsanitize=$sanitize")
+fi
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 cmake --install "$build" --prefix "$work/prefix" > "$work/install.log"
@@ -28,7 +34,7 @@ int main(int argc, char** argv) {
 }
 CPP
 cmake -S "$work/consumer" -B "$work/consumer/build" -DCMAKE_PREFIX_PATH="$work/prefix" \
-  -DCMAKE_BUILD_TYPE=Release > "$work/configure.log"
+  -DCMAKE_BUILD_TYPE=Release "${flags[@]}" > "$work/configure.log"
 cmake --build "$work/consumer/build" -j2 > "$work/build.log" || { cat "$work/build.log"; exit 1; }
 "$work/consumer/build/consumer" "$src/examples/lamp.yaml"
 test -x "$work/prefix/bin/cfuse"
