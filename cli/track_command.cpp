@@ -12,6 +12,7 @@
 #include <fstream>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
+#include <opencv2/videoio/registry.hpp>
 #include <ostream>
 #include <set>
 
@@ -69,8 +70,7 @@ class FrameSource {
         if (!std::ifstream(spec, std::ios::binary)) {
           throw InputError(where, fmt::format("cannot open: {}", std::strerror(errno)));
         }
-        const QuietStderr quiet;  // each back end tried logs its failure there
-        if (!video_.open(spec) || !video_.isOpened()) {
+        if (!OpenVideoFile(spec)) {
           throw InputError(where, "cannot open the video (no decoder for it, or damaged)");
         }
         const double count = video_.get(cv::CAP_PROP_FRAME_COUNT);
@@ -137,6 +137,18 @@ class FrameSource {
   }
 
  private:
+  // Tries OpenCV's stream back ends in its order of priority, as CAP_ANY would, but not
+  // gphoto2: a file is not a camera, and gphoto2 would probe the USB bus for one (slow, and
+  // libgphoto2 leaks what it allocates there).
+  bool OpenVideoFile(const std::string& spec) {
+    const QuietStderr quiet;  // each back end tried logs its failure there
+    for (const cv::VideoCaptureAPIs api : cv::videoio_registry::getStreamBackends()) {
+      if (api == cv::CAP_GPHOTO2) continue;
+      if (video_.open(spec, api) && video_.isOpened()) return true;
+    }
+    return false;
+  }
+
   std::string spec_;
   std::vector<std::string> files_;
   cv::VideoCapture video_;
