@@ -84,8 +84,8 @@ std::optional<double> NumberValue(std::string_view lexeme) {
   return value;
 }
 
-// A non-negative integer written with digits only; values beyond 10^18 saturate there (every
-// limit is far below).
+// A non-negative integer written with digits only. Once it reaches 10^17 it is returned as it
+// stands: every limit is far below, and the next digit could overflow 2^63 from 10^18 on.
 std::optional<int64_t> NonNegativeInteger(std::string_view s) {
   if (s.empty() || !std::all_of(s.begin(), s.end(), [](char c) { return c >= '0' && c <= '9'; })) {
     return std::nullopt;
@@ -93,7 +93,8 @@ std::optional<int64_t> NonNegativeInteger(std::string_view s) {
   int64_t value = 0;
   for (char c : s) {
     value = value * 10 + (c - '0');
-    if (value > 1000000000000000000) return value;
+    // Below 10^18 before the next digit: value * 10 + 9 stays below 2^63.
+    if (value >= 100000000000000000) return value;
   }
   return value;
 }

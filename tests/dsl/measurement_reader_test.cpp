@@ -148,6 +148,18 @@ TEST_CASE("measurements: the JSON fast path reads as the YAML reader does", "[ds
     CHECK(ReadPlainJsonMeasurements(text, "m.json", read_camera));
 }
 
+// Found by the `measurements` fuzz target: JSON that YAML 1.2 cannot parse (a line break
+// between a key and its colon makes an implicit key span lines) is read by the fast path.
+TEST_CASE("measurements: JSON beyond YAML's syntax is read all the same", "[dsl]") {
+  const std::string text =
+      "{\"points\"\n\n: [{\"xyz\": [1, 2, 3], \"sigma\": 0.5, \"label\": \"a\"}]}";
+  const MeasurementSet set = ReadMeasurementsFromString(text, "m.json");
+  REQUIRE(set.points.size() == 1);
+  CHECK(set.points[0].label == "a");
+  CHECK(set.points[0].where.ToString() == "m.json:3:4: points[0]");
+  CHECK_THROWS_WITH(ReadByYaml(text, "m.json"), Catch::Contains("YAML syntax error"));
+}
+
 TEST_CASE("measurements: malformed JSON gets the YAML reader's message", "[dsl]") {
   // The fast path gives up on each; the message is the one a YAML spelling gets.
   const testing::BadCase cases[] = {

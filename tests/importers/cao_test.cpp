@@ -419,8 +419,9 @@ TEST_CASE("cao: malformed files are refused at the line and column", "[importers
   const std::string cases[] = {
       // The header.
       "", "# only a comment\n", "V2\n8\n", "  cube\n", "V1 extra\n",
+      "V0000000000000000000010000000000000000000\n",  // the fuzzer's: no overflow
       // Counts.
-      "V1\n-1\n", "V1\n2.5\n", "V1\n20001\n", "V1\n8 points\n", "V1\n0\n0\n0\n0\n",
+      "V1\n-1\n", "V1\n2.5\n", "V1\n20001\n", "V1\n100000000000000000000000\n", "V1\n8 points\n", "V1\n0\n0\n0\n0\n",
       // Points.
       "V1\n1\n0 0\n", "V1\n1\n0 x 0\n", "V1\n1\n0 0 1e999\n", "V1\n1\n0 0 0 7\n", "V1\n1\n0 0 0,\n",
       // Truncated files.
@@ -462,9 +463,11 @@ TEST_CASE("cao: malformed files are refused at the line and column", "[importers
       {"", 1, 1, "unsupported CAO version 'V2': cfuse reads version 1 ('V1')"},
       {"", 1, 3, "not a CAO file: expected the header 'V1', found 'cube'"},
       {"", 1, 4, "unexpected 'extra' after the header 'V1'"},
+      {"", 1, 1, "unsupported CAO version 'V000000000000000000001000000000000000...'"},
       {"", 2, 1, "the number of 3D points must be a non-negative integer, found '-1'"},
       {"", 2, 1, "the number of 3D points must be a non-negative integer, found '2.5'"},
       {"", 2, 1, "the number of 3D points, 20001, exceeds the limit of 20000"},
+      {"", 2, 1, "the number of 3D points, 100000000000000000000000, exceeds the limit of 20000"},
       {"", 2, 3, "unexpected 'points' after the number of 3D points"},
       {"", 2, 1, "the model has no points: the number of 3D points is 0 and nothing is loaded"},
       {"", 3, 4, "a 3D point needs 3 numbers (X Y Z), found 2"},
