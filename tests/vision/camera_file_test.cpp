@@ -292,7 +292,11 @@ TEST_CASE("OpenCV camera files: syntax errors carry OpenCV's line; missing files
        5, "syntax error (cv::FileStorage): Mismatched closing tag"},
       // cv::FileStorage crashes on a NUL byte (found by fuzz/camera_fuzz.cpp): refused first.
       {"nul.xml", "<?xml version=\"1.0\"?>\n<opencv_storage>\n<image_width>\0</image_width>\n"sv, 0,
-       "is a binary file, not a camera file (NUL byte at offset 52)"}};
+       "is a binary file, not a camera file (NUL byte at offset 52)"},
+      // OpenCV's YAML parser throws std::length_error here (found by fuzz/camera_fuzz.cpp).
+      {"colon.yml",
+       "%YAML:1.0\n---\nm: !!opencv-matrix\n   rows: 3\n   cols: 3\n   dt: d\n   :data: [ 8.1 ]\n",
+       0, "cv::FileStorage cannot parse it (basic_string::_M_create)"}};
   for (const Case& c : cases) {
     const std::string path = (dir / c.name).string();
     std::ofstream(path, std::ios::binary).write(c.text.data(), std::streamsize(c.text.size()));
