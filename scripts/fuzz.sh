@@ -39,6 +39,9 @@ for t in "${targets[@]}"; do
   corpus=build-fuzz/corpus/$t
   findings=build-fuzz/findings/$t
   mkdir -p "$corpus" "$findings"
+  # Findings of earlier runs stay in $findings until fixed; this run counts its own only.
+  started=build-fuzz/$t.started
+  touch "$started"
   read -r -a seeds <<<"$(sed -n "s/^$t:\(.*\)/\1/p" fuzz/corpora.txt)"
   [ -d "fuzz/regressions/$t" ] && seeds+=("fuzz/regressions/$t")
   dict=()
@@ -57,7 +60,7 @@ for t in "${targets[@]}"; do
   rc=$?
   set -e
   execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -1)
-  found=$(find "$findings" -type f | wc -l)
+  found=$(find "$findings" -type f -newer "$started" | wc -l)
   units=$(find "$corpus" -type f | wc -l)
   [ "$rc" -ne 0 ] || [ "$found" -ne 0 ] && status=1
   summary+=("$(printf '| %-12s | %6s | %12s | %7s | %s |' "$t" "$seconds" "${execs:-?}" "$units" \
