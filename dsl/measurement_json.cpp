@@ -268,7 +268,9 @@ class Handler : public nlohmann::json_sax<nlohmann::json> {
         for (int j = 0; j < n; ++j) C(i, j) = r.cov[i][j];
       }
       if (CovarianceProblem(C)) return false;
-      C = 0.5 * (C + C.transpose());
+      // eval(): the transpose reads what the assignment writes (found by the measurements
+      // fuzz target: the result was not symmetric).
+      C = (0.5 * (C + C.transpose())).eval();
     }
     if (p.is_3d) {
       p.xyz = Eigen::Vector3d(r.xyz[0], r.xyz[1], r.xyz[2]);

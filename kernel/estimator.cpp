@@ -609,7 +609,8 @@ Prediction Predict(const Factor& factor, const GaussianState& state) {
   }
   const Eigen::MatrixXd P = state.covariance(index, index);
   p.covariance = H * P * H.transpose();
-  p.covariance = 0.5 * (p.covariance + p.covariance.transpose());
+  // eval(): the transpose reads what the assignment writes (Eigen does not guard against it).
+  p.covariance = (0.5 * (p.covariance + p.covariance.transpose())).eval();
   p.valid = p.covariance.allFinite();
   return p;
 }

@@ -160,6 +160,20 @@ TEST_CASE("measurements: JSON beyond YAML's syntax is read all the same", "[dsl]
   CHECK_THROWS_WITH(ReadByYaml(text, "m.json"), Catch::Contains("YAML syntax error"));
 }
 
+// Found by the `measurements` fuzz target: a covariance asymmetric within the tolerance (relative
+// to its largest entry) was symmetrised in place, reading entries already overwritten.
+TEST_CASE("measurements: a nearly symmetric cov is made exactly symmetric, as YAML does", "[dsl]") {
+  const std::string text =
+      R"({"points": [{"xyz": [1, 2, 3], "cov": [[4e-6, 0, 0], [0, 4e-6, 0], [1, 0, 4e206]]}]})";
+  const MeasurementSet fast = ReadMeasurementsFromString(text, "m.json");
+  const MeasurementSet yaml = ReadByYaml(text, "m.json");
+  REQUIRE(fast.points.size() == 1);
+  const Eigen::Matrix3d& C = fast.points[0].cov3;
+  CHECK(C == C.transpose());
+  CHECK(C(0, 2) == 0.5);
+  CHECK(SameMeasurements(fast, yaml));
+}
+
 TEST_CASE("measurements: malformed JSON gets the YAML reader's message", "[dsl]") {
   // The fast path gives up on each; the message is the one a YAML spelling gets.
   const testing::BadCase cases[] = {

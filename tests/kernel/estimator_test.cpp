@@ -238,6 +238,13 @@ TEST_CASE("estimator: the covariance stays symmetric positive semidefinite over 
       CHECK(worst <= first_worst);
     }
   }
+  // Predictions from that state (the gates of interpretation and tracking) are exactly
+  // symmetric too.
+  for (const Factor& f : ConstraintFactors(g)) {
+    const Prediction p = Predict(f, state);
+    REQUIRE(p.valid);
+    CHECK((p.covariance - p.covariance.transpose()).cwiseAbs().maxCoeff() == 0.0);
+  }
 }
 
 TEST_CASE(
