@@ -247,8 +247,8 @@ Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& disp
   } catch (const InputError&) {
     throw;
   } catch (const std::exception& e) {
-    // OpenCV 4.6's YAML parser lets std::length_error escape on some malformed texts (a key
-    // starting with ':' after a long number; found by fuzz/camera_fuzz.cpp), with no line.
+    // OpenCV 4.6's YAML parser lets std::length_error escape on some malformed texts (a matrix
+    // key starting with ':'; found by fuzz/camera_fuzz.cpp), with no line.
     throw InputError(SourceLocation(display_name),
                      fmt::format("cv::FileStorage cannot parse it ({})", e.what()));
   }

@@ -421,7 +421,8 @@ TEST_CASE("cao: malformed files are refused at the line and column", "[importers
       "", "# only a comment\n", "V2\n8\n", "  cube\n", "V1 extra\n",
       "V0000000000000000000010000000000000000000\n",  // the fuzzer's: no overflow
       // Counts.
-      "V1\n-1\n", "V1\n2.5\n", "V1\n20001\n", "V1\n100000000000000000000000\n", "V1\n8 points\n", "V1\n0\n0\n0\n0\n",
+      "V1\n-1\n", "V1\n2.5\n", "V1\n20001\n", "V1\n100000000000000000000000\n", "V1\n8 points\n",
+      "V1\n0\n0\n0\n0\n",
       // Points.
       "V1\n1\n0 0\n", "V1\n1\n0 x 0\n", "V1\n1\n0 0 1e999\n", "V1\n1\n0 0 0 7\n", "V1\n1\n0 0 0,\n",
       // Truncated files.
