@@ -14,6 +14,7 @@
 #include <cmath>
 #include <cstring>
 #include <iostream>
+#include <map>
 #include <optional>
 #include <sstream>
 #include <stdexcept>
@@ -110,6 +111,15 @@ std::vector<PeerFrame> TrackWithVisp(const std::vector<const std::uint8_t*>& fra
   vpCameraParameters cam;
   cam.initPersProjWithoutDistortion(camera.fx, camera.fy, camera.cx, camera.cy);
   tracker.setCameraParameters(cam);
+  if (!options.config_file.empty()) {
+    try {
+      const SilenceCout quiet;
+      tracker.loadConfigFile(options.config_file, false);
+    } catch (const vpException& e) {
+      throw std::runtime_error("ViSP cannot read '" + options.config_file +
+                               "': " + e.getStringMessage());
+    }
+  }
   tracker.setOgreVisibilityTest(false);
   tracker.setScanLineVisibilityTest(options.scanline_visibility);
   try {
@@ -160,6 +170,80 @@ std::vector<PeerFrame> TrackWithVisp(const std::vector<const std::uint8_t*>& fra
       } catch (const vpException&) {
       }
     }
+    out.push_back(f);
+  }
+  return out;
+}
+
+std::vector<PeerFrame> TrackWithVispDepth(const std::vector<const std::uint8_t*>& frames, int width,
+                                          int height, const Camera& camera,
+                                          const std::string& cao_path, const Rigid3d& initial,
+                                          const VispOptions& options,
+                                          const std::vector<DepthCloud>& clouds,
+                                          const std::string& depth_config,
+                                          const Rigid3d& depth_from_color) {
+  if (frames.empty() || clouds.size() != frames.size()) {
+    throw std::invalid_argument("TrackWithVispDepth: one depth cloud per frame");
+  }
+#ifdef _OPENMP
+  if (options.threads > 0) omp_set_num_threads(options.threads);
+#endif
+  vpMbGenericTracker tracker(
+      std::vector<int>{vpMbGenericTracker::EDGE_TRACKER, vpMbGenericTracker::DEPTH_DENSE_TRACKER});
+  try {
+    const SilenceCout quiet;
+    tracker.loadConfigFile(options.config_file, depth_config, false);
+    tracker.loadModel(cao_path, cao_path);
+  } catch (const vpException& e) {
+    throw std::runtime_error("ViSP cannot read the settings or the model: " + e.getStringMessage());
+  }
+  (void)camera;
+  tracker.setScanLineVisibilityTest(options.scanline_visibility);
+  tracker.setDisplayFeatures(false);
+  std::map<std::string, vpHomogeneousMatrix> transforms;
+  transforms["Camera2"] = ToVisp(depth_from_color);
+  tracker.setCameraTransformationMatrix(transforms);
+
+  vpImage<unsigned char> image(static_cast<unsigned>(height), static_cast<unsigned>(width));
+  CopyFrame(frames[0], width, height, &image);
+  try {
+    tracker.initFromPose(image, ToVisp(initial));
+  } catch (const vpException& e) {
+    throw std::runtime_error("ViSP cannot start from the initial pose: " + e.getStringMessage());
+  }
+  std::vector<PeerFrame> out;
+  vpHomogeneousMatrix last_good = ToVisp(initial);
+  std::vector<vpColVector> cloud;
+  for (size_t i = 0; i < frames.size(); ++i) {
+    CopyFrame(frames[i], width, height, &image);
+    cloud.assign(clouds[i].points.size(), vpColVector(3, 0.0));
+    for (size_t k = 0; k < cloud.size(); ++k) {
+      for (int j = 0; j < 3; ++j) cloud[k][j] = clouds[i].points[k][j];
+    }
+    std::map<std::string, const vpImage<unsigned char>*> images{{"Camera1", &image}};
+    std::map<std::string, const std::vector<vpColVector>*> points{{"Camera2", &cloud}};
+    std::map<std::string, unsigned int> widths{{"Camera2", static_cast<unsigned>(clouds[i].width)}};
+    std::map<std::string, unsigned int> heights{
+        {"Camera2", static_cast<unsigned>(clouds[i].height)}};
+    PeerFrame f;
+    const auto start = std::chrono::steady_clock::now();
+    bool threw = false;
+    try {
+      tracker.track(images, points, widths, heights);
+    } catch (const vpException&) {
+      threw = true;
+    }
+    f.ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    std::optional<Rigid3d> pose;
+    if (!threw) {
+      vpHomogeneousMatrix c_m_o;
+      tracker.getPose(c_m_o);
+      pose = FromVisp(c_m_o);
+      if (pose) last_good = c_m_o;
+    }
+    f.ok = pose.has_value();
+    f.camera_from_object = pose ? *pose : *FromVisp(last_good);
     out.push_back(f);
   }
   return out;

@@ -23,6 +23,7 @@
 // cfuse_visp_peer library (built when CMake finds ViSP) links it.
 #pragma once
 
+#include <Eigen/Core>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -57,6 +58,10 @@ struct VispOptions {
   double far_clipping = 100;   // m
   bool scanline_visibility = true;
   double good_moving_edges_ratio = 0.2;  // below this share of good edges, track() throws
+  // A ViSP settings file (vpMbGenericTracker::loadConfigFile: moving edges, camera, face angles,
+  // clipping), read after the fields above, which it overrides where it has them: a data set's own
+  // settings, as ViSP's own tests read them. Empty: the fields alone.
+  std::string config_file;
   // OpenMP threads ViSP's core may use; 1 keeps the timing comparable to a single-threaded
   // tracker (0: leave ViSP's default, all cores).
   int threads = 1;
@@ -83,5 +88,26 @@ struct PeerFrame {
 std::vector<PeerFrame> TrackWithVisp(const std::vector<const std::uint8_t*>& frames, int width,
                                      int height, const Camera& camera, const std::string& cao_path,
                                      const Rigid3d& initial, const VispOptions& options = {});
+
+// A depth frame as a point cloud in the depth camera's frame (metres), row-major, width x height
+// points; a point without depth is (0, 0, 0).
+struct DepthCloud {
+  int width = 0, height = 0;
+  std::vector<Eigen::Vector3f> points;
+};
+
+// The same with ViSP's edges and its dense depth tracker together (vpMbGenericTracker with
+// EDGE_TRACKER on the grey camera and DEPTH_DENSE_TRACKER on the depth camera, as ViSP's own
+// examples track mbt-depth's sequences): far more accurate than edges alone, and independent of
+// them, so a reference for sequences that have no truth. `depth_config` is the depth camera's
+// settings file (its camera and sampling), `depth_from_color` the transform between the two
+// cameras (ViSP's depth_M_color), `clouds` one per frame.
+std::vector<PeerFrame> TrackWithVispDepth(const std::vector<const std::uint8_t*>& frames, int width,
+                                          int height, const Camera& camera,
+                                          const std::string& cao_path, const Rigid3d& initial,
+                                          const VispOptions& options,
+                                          const std::vector<DepthCloud>& clouds,
+                                          const std::string& depth_config,
+                                          const Rigid3d& depth_from_color);
 
 }  // namespace cfuse::bench

@@ -12,6 +12,7 @@
 #include "dsl/model_loader.h"
 #include "importers/cao.h"
 #include "importers/urdf.h"
+#include "importers/visp.h"
 #include "kernel/check.h"
 #include "kernel/error.h"
 #include "vision/camera_file.h"
@@ -69,8 +70,29 @@ ConstraintGraph LoadAnyModel(const std::string& path) {
   return dsl::LoadModel(path, ModelLoadOptions());
 }
 
+namespace {
+
+// Whether the file's first character, after a byte order mark and white space, is '<'.
+bool LooksLikeXml(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string head(256, '\0');
+  in.read(head.data(), static_cast<std::streamsize>(head.size()));
+  head.resize(static_cast<size_t>(in.gcount()));
+  if (head.starts_with("\xEF\xBB\xBF")) head.erase(0, 3);
+  const size_t start = head.find_first_not_of(" \t\r\n");
+  return start != std::string::npos && head[start] == '<';
+}
+
+}  // namespace
+
 Camera LoadAnyCamera(const std::string& path) {
+  // ViSP's XML first: its roots (<conf>, <root>) are not OpenCV's <opencv_storage>.
+  if (importers::IsVispCameraFile(path)) return importers::ReadVispCamera(path);
   if (vision::IsOpenCvStorage(path)) return vision::ReadOpenCvCamera(path);
+  // Other XML: refused by the ViSP reader, which names the roots of the XML cameras cfuse reads
+  // (the YAML reader would call it a malformed mapping).
+  std::error_code ec;
+  if (fs::is_regular_file(path, ec) && LooksLikeXml(path)) return importers::ReadVispCamera(path);
   return dsl::ReadCameraFile(path);
 }
 

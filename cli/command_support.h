@@ -21,9 +21,12 @@ int Guarded(std::ostream& err, const std::function<int()>& body);
 // and .cao files too), .urdf (importers/urdf.h) or .cao (importers/cao.h).
 ConstraintGraph LoadAnyModel(const std::string& path);
 
-// A camera from a file of any supported format (docs/formats.md "Cameras"): an OpenCV
-// FileStorage calibration (vision/camera_file.h, recognised by its first bytes), else cfuse's
-// camera object or a ROS camera_info YAML (dsl/measurement_reader.h).
+// A camera from a file of any supported format (docs/formats.md "Cameras"): ViSP's XML (tracker
+// settings or vpXmlParserCamera, importers/visp.h, recognised by the root element <conf> or
+// <root>), an OpenCV FileStorage calibration (vision/camera_file.h, recognised by its first
+// bytes), else cfuse's camera object or a ROS camera_info YAML (dsl/measurement_reader.h). A
+// ViSP camera may have no image size (width and height 0): each command says what it takes
+// instead, or refuses it.
 Camera LoadAnyCamera(const std::string& path);
 
 // Refuses an output path that cannot be written: its directory missing (or not a directory),

@@ -228,7 +228,17 @@ int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::o
     sim_options.occlusion = options.occlusion;
     sim_options.labels = options.labels;
     sim_options.sample_joints = options.sample_joints;
-    if (!options.camera.empty()) sim_options.camera = LoadAnyCamera(options.camera);
+    if (!options.camera.empty()) {
+      sim_options.camera = LoadAnyCamera(options.camera);
+      if (sim_options.camera->width <= 0 || sim_options.camera->height <= 0) {
+        // ViSP's tracker settings give no size; the image bounds where the model and the clutter
+        // are placed.
+        throw InputError(SourceLocation(options.camera),
+                         "the camera gives no image size (width and height), and simulate "
+                         "places the model and the clutter inside the image: give a camera file "
+                         "with one");
+      }
+    }
     const Simulation sim = Simulate(graph, sim_options);
     const std::string measurements = JsonText(MeasurementsJson(sim.measurements), 1) + "\n";
     const std::string truth = JsonText(TruthJson(graph, sim.truth, sim.matches), 1) + "\n";

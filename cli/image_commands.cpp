@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -25,6 +26,7 @@
 #include "vision/render.h"
 #include "vision/segments.h"
 #include "vision/sequence.h"
+#include "vision/texture.h"
 
 namespace cfuse::cli {
 namespace {
@@ -164,10 +166,15 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
       if (!path->empty()) RequireWritable(*path);
     }
     const ConstraintGraph graph = LoadAnyModel(options.model);
-    const Camera camera = LoadAnyCamera(options.camera);
+    Camera camera = LoadAnyCamera(options.camera);
     if (camera.width <= 0 || camera.height <= 0) {
-      throw InputError(SourceLocation(options.camera),
-                       "the camera needs its image size (width and height) to clip edges to");
+      // A camera without a size (ViSP's tracker settings give none) takes the image's.
+      if (options.image.empty()) {
+        throw InputError(SourceLocation(options.camera),
+                         "the camera gives no image size (width and height) to clip the edges "
+                         "to: give --image, whose size it then takes");
+      }
+      SizeCameraFromImage(ReadGrayImage(options.image), options.image, options.camera, &camera);
     }
     if (!options.overlay.empty() && options.image.empty()) {
       throw InputError(SourceLocation(options.overlay),
@@ -209,10 +216,44 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
 
 namespace {
 
+// The render command's style, or an InputError naming the styles.
+vision::RenderStyle RenderStyleOption(const RenderCommandOptions& options) {
+  const std::optional<vision::RenderStyle> style = vision::ParseRenderStyle(options.style);
+  if (!style) {
+    throw InputError(
+        SourceLocation(options.model),
+        fmt::format("--style '{}': the styles are plain and realistic", options.style));
+  }
+  if (*style != vision::RenderStyle::kRealistic && !options.photographs.empty()) {
+    throw InputError(SourceLocation(options.photographs.front()),
+                     "--photographs is for --style realistic");
+  }
+  return *style;
+}
+
+// The realistic style's photographs: those given, else the visp-images-data package's if it is
+// installed; null (procedural cards) when neither.
+std::shared_ptr<const std::vector<vision::GrayImage>> RenderPhotographs(
+    const RenderCommandOptions& options, vision::RenderStyle style) {
+  if (style != vision::RenderStyle::kRealistic) return nullptr;
+  const std::vector<std::string> paths =
+      options.photographs.empty() ? vision::VispPhotographPaths() : options.photographs;
+  if (paths.empty()) return nullptr;
+  return std::make_shared<const std::vector<vision::GrayImage>>(vision::LoadPhotographs(paths));
+}
+
+std::string StyleNote(vision::RenderStyle style) {
+  return style == vision::RenderStyle::kPlain
+             ? ""
+             : fmt::format(" ({})", vision::RenderStyleName(style));
+}
+
 // `cfuse render --sequence`: the frames, the true track and the first frame's poses, written
 // into a sibling directory first and renamed into place at the end.
 int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintGraph& graph,
-                          const Camera& camera, std::ostream& out) {
+                          const Camera& camera, vision::RenderStyle style,
+                          std::shared_ptr<const std::vector<vision::GrayImage>> photographs,
+                          std::ostream& out) {
   const SourceLocation where(options.output);
   std::error_code ec;
   // Like every other output, a new directory in an existing one (not its parents created).
@@ -231,7 +272,8 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
   }
   vision::SequenceSpec spec;
   try {
-    spec = vision::StandardSequence(graph, options.sequence, options.frames, options.seed);
+    spec = vision::StandardSequence(graph, options.sequence, options.frames, options.seed, style,
+                                    std::move(photographs));
   } catch (const std::invalid_argument& e) {
     throw InputError(SourceLocation(options.model), e.what());
   }
@@ -268,9 +310,10 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
     throw;
   }
   out << fmt::format(
-      "rendered '{}', sequence '{}': {} frames of {} x {} -> {}/ (frame_NNNNN.png, truth.csv, "
+      "rendered '{}', sequence '{}'{}: {} frames of {} x {} -> {}/ (frame_NNNNN.png, truth.csv, "
       "init.json)\n",
-      graph.name, options.sequence, frames.size(), camera.width, camera.height, options.output);
+      graph.name, options.sequence, StyleNote(style), frames.size(), camera.width, camera.height,
+      options.output);
   return 0;
 }
 
@@ -282,14 +325,23 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
       RequireWritable(options.output);
       if (!options.truth.empty()) RequireWritable(options.truth);
     }
+    const vision::RenderStyle style = RenderStyleOption(options);
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const Camera camera = LoadAnyCamera(options.camera);
+    if (camera.width <= 0 || camera.height <= 0) {
+      // ViSP's tracker settings give no size, and there is no image to take one from.
+      throw InputError(SourceLocation(options.camera),
+                       "the camera gives no image size (width and height), and render draws "
+                       "images of the camera's size: give a camera file with one");
+    }
+    std::shared_ptr<const std::vector<vision::GrayImage>> photographs =
+        RenderPhotographs(options, style);
     if (!options.sequence.empty()) {
       if (!options.pose.empty()) {
         throw InputError(SourceLocation(options.pose),
                          "--pose and --sequence exclude each other: a sequence has its own poses");
       }
-      return RenderSequenceCommand(options, graph, camera, out);
+      return RenderSequenceCommand(options, graph, camera, style, std::move(photographs), out);
     }
     if (options.pose.empty()) {
       throw InputError(SourceLocation(options.model), "give --pose (or --sequence NAME)");
@@ -301,6 +353,9 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
     ro.blur = options.blur;
     ro.clutter_lines = options.clutter_lines;
     ro.clutter_blobs = options.clutter_blobs;
+    ro.style = style;
+    ro.realistic.photographs = std::move(photographs);
+    ro.realistic.look_seed = options.seed;
     vision::Rendering r;
     try {
       r = vision::Render(graph, values, camera, ro);
@@ -322,8 +377,8 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
     files.Stage(options.output, std::string(png.begin(), png.end()));
     if (!options.truth.empty()) files.Stage(options.truth, Dump(truth));
     files.Commit();
-    out << fmt::format("rendered '{}' at {} x {} -> {}{}\n", graph.name, r.width, r.height,
-                       options.output,
+    out << fmt::format("rendered '{}'{} at {} x {} -> {}{}\n", graph.name, StyleNote(style),
+                       r.width, r.height, options.output,
                        options.truth.empty() ? "" : ", its visible edges -> " + options.truth);
     return 0;
   });

@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 #include <unistd.h>
 
+#include <cctype>
 #include <cerrno>
 #include <cstdio>
 #include <cstring>
@@ -14,8 +15,10 @@
 #include <set>
 
 #include "dsl/pose_reader.h"
+#include "importers/visp.h"
 #include "interp/solve.h"
 #include "kernel/error.h"
+#include "kernel/measurements/camera_checks.h"
 
 namespace cfuse::cli {
 namespace {
@@ -102,6 +105,18 @@ cv::Mat ReadGrayImage(const std::string& path) {
   return gray;
 }
 
+void SizeCameraFromImage(const cv::Mat& image, const std::string& source,
+                         const std::string& camera_file, Camera* camera) {
+  camera->width = image.cols;
+  camera->height = image.rows;
+  if (const auto problem =
+          PrincipalPointProblem(camera->cx, camera->cy, camera->width, camera->height)) {
+    throw InputError(
+        SourceLocation(camera_file),
+        fmt::format("{} (the camera gives no size: it is {}'s)", problem->message, source));
+  }
+}
+
 std::string PngBytes(const cv::Mat& image) {
   std::vector<std::uint8_t> bytes;
   cv::imencode(".png", image, bytes);
@@ -109,6 +124,16 @@ std::string PngBytes(const cv::Mat& image) {
 }
 
 Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
+  std::string ext = fs::path(pose_file).extension().string();
+  for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
+  if (ext == ".pos") {
+    // ViSP's cMo places the model's frame: every component and point rides on it rigidly.
+    const Rigid3d camera_from_object = importers::ReadVispPose(pose_file);
+    Values values = graph.nominal;
+    for (Rigid3d& pose : values.poses) pose = camera_from_object * pose;
+    for (Eigen::Vector3d& point : values.points) point = camera_from_object * point;
+    return values;
+  }
   const PoseSet poses = dsl::ReadPoses(pose_file);
   Values values = graph.nominal;
   ApplyGuess(graph, poses, &values);

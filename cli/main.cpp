@@ -68,7 +68,7 @@ int main(int argc, char** argv) {
   sim_cmd->add_option("--pixel-noise", sim.pixel_noise, "2D noise sigma, pixels")
       ->check(CLI::PositiveNumber);
   sim_cmd->add_option("--camera", sim.camera,
-                      "Camera file (cfuse's, an OpenCV calibration or a ROS camera_info): 2D "
+                      "Camera file (cfuse's, OpenCV's, ViSP's or a ROS camera_info): 2D "
                       "measurements instead of 3D");
   sim_cmd->add_option("--clutter", sim.clutter, "Clutter points per real point")
       ->check(CLI::Range(0.0, 100.0));
@@ -109,20 +109,22 @@ int main(int argc, char** argv) {
   cfuse::cli::ProjectCommandOptions project;
   project_cmd->add_option("MODEL", project.model, "Model file (.yaml, .urdf or .cao)")->required();
   project_cmd->add_option("--camera", project.camera, "Camera file")->required();
-  project_cmd->add_option("--pose", project.pose, "Poses (results format: its components)")
+  project_cmd->add_option("--pose", project.pose, "Poses (results format, or ViSP's .pos)")
       ->required();
   project_cmd->add_option("-o,--output", project.output, "Edges file (default: stdout)");
   project_cmd->add_option("--overlay", project.overlay, "PNG of the edges drawn on --image");
-  project_cmd->add_option("--image", project.image, "The image to draw the edges on");
+  project_cmd->add_option("--image", project.image,
+                          "The image to draw the edges on (its size for a camera without one)");
 
   CLI::App* render_cmd = app.add_subcommand(
       "render", "A synthetic image of the model at a pose, with clutter, and its true edges");
   cfuse::cli::RenderCommandOptions render;
   render_cmd->add_option("MODEL", render.model, "Model file (.yaml, .urdf or .cao)")->required();
   render_cmd->add_option("--camera", render.camera, "Camera file (no distortion)")->required();
-  render_cmd->add_option("--pose", render.pose, "Poses (results format: its components)");
-  render_cmd->add_option("--sequence", render.sequence,
-                         "A tracking sequence instead: steady, fast, occluded, clutter or jump");
+  render_cmd->add_option("--pose", render.pose, "Poses (results format, or ViSP's .pos)");
+  render_cmd->add_option(
+      "--sequence", render.sequence,
+      "A tracking sequence instead: steady, fast, occluded, clutter, jump or hand");
   render_cmd->add_option("--frames", render.frames, "Frames of the sequence")
       ->check(CLI::Range(1, 100000))
       ->capture_default_str();
@@ -139,17 +141,31 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 10000));
   render_cmd->add_option("--clutter-blobs", render.clutter_blobs, "Background blobs")
       ->check(CLI::Range(0, 10000));
+  render_cmd
+      ->add_option("--style", render.style,
+                   "plain (default): flat grey faces over dark clutter; realistic: photographs "
+                   "printed on the faces and behind them, a light with its highlight and a soft "
+                   "shadow, motion blur (sequences), read and shot noise")
+      ->capture_default_str();
+  render_cmd->add_option(
+      "--photographs", render.photographs,
+      "With --style realistic: photographs (image files or directories) for the faces and the "
+      "background; default: Debian's visp-images-data photographs if installed, else "
+      "procedural cards");
 
   CLI::App* track_cmd = app.add_subcommand(
       "track", "Track the model through an image sequence (Lowe 1992 on constraint fusion)");
   cfuse::cli::TrackCommandOptions track;
   track_cmd->add_option("MODEL", track.model, "Model file (.yaml, .urdf or .cao)")->required();
-  track_cmd->add_option("--camera", track.camera, "Camera file, with the image size")->required();
+  track_cmd->add_option("--camera", track.camera, "Camera file (without a size: the first frame's)")
+      ->required();
   track_cmd
       ->add_option("--images", track.images,
                    "The frames: a glob ('frames/*.png'), a directory or a video file")
       ->required();
-  track_cmd->add_option("--init", track.init, "Poses at the first frame (results format)")
+  track_cmd
+      ->add_option("--init", track.init,
+                   "Poses at the first frame (results format, or ViSP's .pos)")
       ->required();
   track_cmd->add_option("-o,--output", track.output, "Track file, CSV (default: stdout)");
   track_cmd->add_option("--overlay", track.overlay, "Directory for overlay frames (PNG)");

@@ -13,6 +13,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <opencv2/videoio/registry.hpp>
+#include <optional>
 #include <ostream>
 #include <set>
 
@@ -256,11 +257,10 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     }
     const ConstraintGraph graph = LoadAnyModel(options.model);
     RequireEstimable(graph);
-    const Camera camera = LoadAnyCamera(options.camera);
-    if (camera.width <= 0 || camera.height <= 0) {
-      throw InputError(SourceLocation(options.camera),
-                       "the camera needs its image size (width and height) to track in");
-    }
+    // A camera without an image size (ViSP's tracker settings give none) takes the first frame's;
+    // one with a size must match it.
+    Camera camera = LoadAnyCamera(options.camera);
+    const bool camera_sized = camera.width > 0 && camera.height > 0;
     const Values initial = PosedModel(graph, options.init);
     if (vision::ModelEdges(graph).empty()) {
       throw InputError(SourceLocation(options.model),
@@ -272,14 +272,16 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
 
     track::TrackerOptions tracker_options;
     tracker_options.max_branches = options.max_branches;
-    track::Tracker tracker(graph, camera, initial, tracker_options);
+    // Made with the first frame that is read, whose size it needs; frames skipped before it are
+    // counted so that the prediction spans them all the same.
+    std::optional<track::Tracker> tracker;
+    int skipped_before_first = 0;
     std::string csv = TrackCsvHeader(graph);
     std::vector<double> ms;
     std::vector<int> lost, unreadable;
     std::vector<std::string> unreadable_why;
     track::FrameTimes sum;
     int frames = 0, verified = 0;
-    bool size_checked = false;
     ProgressBar progress(err, options.progress, source.expected());
     for (int frame = 0;; ++frame) {
       cv::Mat image;
@@ -290,25 +292,38 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
       } catch (const InputError& e) {
         err << e.what() << ": skipped, the track goes on\n";
         unreadable.push_back(frame);
-        tracker.Skip();
+        if (tracker) {
+          tracker->Skip();
+        } else {
+          ++skipped_before_first;
+        }
         continue;
       }
       if (!more) break;
+      if (!tracker && !camera_sized) SizeCameraFromImage(image, name, options.camera, &camera);
       if (image.cols != camera.width || image.rows != camera.height) {
         const std::string why =
-            fmt::format("the image is {} x {}, the camera's ({}) {} x {}", image.cols, image.rows,
-                        options.camera, camera.width, camera.height);
+            camera_sized
+                ? fmt::format("the image is {} x {}, the camera's ({}) {} x {}", image.cols,
+                              image.rows, options.camera, camera.width, camera.height)
+                : fmt::format(
+                      "the image is {} x {}, the first frame's {} x {} (the camera, {}, "
+                      "gives no size)",
+                      image.cols, image.rows, camera.width, camera.height, options.camera);
         // The first frame decides whether the camera fits the sequence; a later odd one out is
         // skipped like an unreadable one.
-        if (!size_checked) throw InputError(SourceLocation(name), why);
+        if (!tracker) throw InputError(SourceLocation(name), why);
         err << InputError(SourceLocation(name), why).what() << ": skipped, the track goes on\n";
         unreadable.push_back(frame);
-        tracker.Skip();
+        tracker->Skip();
         continue;
       }
-      size_checked = true;
+      if (!tracker) {
+        tracker.emplace(graph, camera, initial, tracker_options);
+        for (int k = 0; k < skipped_before_first; ++k) tracker->Skip();
+      }
       const vision::GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
-      const track::TrackedFrame f = tracker.Track(view);
+      const track::TrackedFrame f = tracker->Track(view);
       ++frames;
       verified += f.verified ? 1 : 0;
       if (!f.verified) lost.push_back(frame);

@@ -8,6 +8,10 @@
 // video file. A frame that cannot be read is reported and skipped, and the track goes on
 // across it; the command then exits 2 after writing everything else (nothing, when no frame could
 // be read). Exit statuses as for every command (commands.h): 1 when no frame was verified.
+//
+// The frames must be of the camera's image size; a camera that gives none (ViSP's tracker
+// settings) takes the first frame's, and a later frame of another size is skipped. --init is a
+// results-format pose file, or ViSP's pose of the object in a `.pos` file (importers/visp.h).
 #pragma once
 
 #include <iosfwd>
@@ -22,7 +26,7 @@ struct TrackCommandOptions {
   std::string model;
   std::string camera;
   std::string images;   // glob, directory or video file
-  std::string init;     // results-format poses at the first frame
+  std::string init;     // results-format poses at the first frame, or a ViSP .pos
   std::string output;   // TRACK.csv; empty: stdout (and the summary to stderr)
   std::string overlay;  // directory for the overlay frames (created if missing)
   int max_branches = 5;

@@ -1,6 +1,11 @@
-// Fuzz target: pose files (`--guess`, `--pose`, `--init`) and joint-value files (`fk --joints`).
+// Fuzz target: pose files (`--guess`, `--pose`, `--init`): the results format and ViSP's `.pos`
+// (importers/visp.h); and joint-value files (`fk --joints`). An accepted ViSP pose must be a
+// rigid transform: finite, its rotation a unit quaternion.
+#include <cmath>
+
 #include "dsl/pose_reader.h"
 #include "fuzz/fuzz_util.h"
+#include "importers/visp.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;
@@ -8,5 +13,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string_view text = fuzz::AsText(data, size);
   fuzz::AcceptedOrRefused([&] { (void)dsl::ReadPosesFromString(text, "fuzz.json"); });
   fuzz::AcceptedOrRefused([&] { (void)dsl::ReadJointValuesFromString(text, "fuzz.json"); });
+  fuzz::AcceptedOrRefused([&] {
+    const Rigid3d pose = importers::ReadVispPoseFromString(text, "fuzz.pos");
+    if (!pose.translation.allFinite() || !pose.rotation.coeffs().allFinite() ||
+        std::abs(pose.rotation.norm() - 1) > 1e-9) {
+      fuzz::Finding("accepted ViSP pose", "not a rigid transform");
+    }
+  });
   return 0;
 }

@@ -482,6 +482,13 @@ class CaoReader {
         fail(i,
              fmt::format("expected ']' after the 3 numbers of {}=[...], found {}", key, found()));
       }
+      // More than a whole turn is no rotation a writer means, and a norm that overflows none at
+      // all (Exp would give NaN points).
+      if (key == "tu" && !(tu.norm() <= 2 * M_PI + 1e-9)) {
+        fail(key_at, fmt::format("tu=[...] turns by {:g} rad, more than a whole turn (2π): a "
+                                 "rotation vector's angle is at most 2π ('deg' marks degrees)",
+                                 tu.norm()));
+      }
       ++i;
       skip();
     }

@@ -18,6 +18,7 @@
 
 #include "constraints/model_builder.h"
 #include "importers/read_file.h"
+#include "importers/xml_document.h"
 
 namespace cfuse::importers {
 namespace {
@@ -125,11 +126,7 @@ class UrdfReader {
 
   // What urdfdom refuses without a location, and what a model cannot hold.
   void CheckXml() {
-    doc_.Parse(std::string(xml_).c_str(), nullptr, TIXML_ENCODING_UTF8);
-    if (doc_.Error()) {
-      throw InputError(SourceLocation(file_, doc_.ErrorRow(), doc_.ErrorCol()),
-                       fmt::format("not well-formed XML: {}", doc_.ErrorDesc()));
-    }
+    ParseXml(file_, xml_, &doc_);
     robot_ = doc_.RootElement();
     if (!robot_) throw InputError(SourceLocation(file_), "not a URDF file: no root element");
     if (std::strcmp(robot_->Value(), "robot") != 0) {

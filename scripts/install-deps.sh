@@ -18,6 +18,7 @@ packages=(
   catch2               # unit tests (v2, with ctest integration)
   libbenchmark-dev     # benchmarks (bench)
   libvisp-mbt-dev      # (bench only: ViSP's edge tracker as a peer)
+  visp-images-data     # ViSP's public sequences, models and cameras: tracking tests and benchmarks
   graphviz             # renders `cfuse graph` output in tests
 )
 if [ "${1:-}" = "--fuzz" ]; then

@@ -14,6 +14,7 @@
 
 #include "kernel/error.h"
 #include "kernel/measurements/camera_checks.h"
+#include "vision/file_storage_screen.h"
 
 namespace cfuse::vision {
 namespace {
@@ -47,14 +48,19 @@ void CheckReadable(const std::string& path) {
 
 // cv::FileStorage formats a syntax error "FILE(LINE): MESSAGE"; OpenCV 4.6 puts that text in the
 // exception's function-name field and the function's name in its error field, so all three
-// fields are searched.
+// fields are searched. In the full message it is followed by "' in function ..." (or stands in
+// quotes after "in function"); the message itself may hold quotes ("Literal ' or > are not
+// allowed").
 InputError SyntaxError(const std::string& path, const cv::Exception& e) {
-  static const std::regex kLocated(R"(\((\d+)\): ([^'\n]+))");
+  static const std::regex kLocated(R"(\((\d+)\): ([^\n]+))");
+  static const std::regex kTrailer(R"(('| in function '[^']*')$)");
   for (const std::string* text : {&e.func, &e.err, &e.msg}) {
     std::smatch m;
     if (std::regex_search(*text, m, kLocated)) {
+      const std::string message =
+          text == &e.msg ? std::regex_replace(m[2].str(), kTrailer, "") : m[2].str();
       return InputError(SourceLocation(path, std::stoi(m[1].str())),
-                        fmt::format("syntax error (cv::FileStorage): {}", m[2].str()));
+                        fmt::format("syntax error (cv::FileStorage): {}", message));
     }
   }
   return InputError(SourceLocation(path), fmt::format("cv::FileStorage cannot read it: {}",
@@ -233,8 +239,10 @@ Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& disp
                                  kMaxCameraFileBytes >> 20));
   }
   // cv::FileStorage (OpenCV 4.6) dereferences null on a NUL byte in the text (found by
-  // fuzz/camera_fuzz.cpp), so it only ever sees text.
+  // fuzz/camera_fuzz.cpp) and where its parser meets the end of the text inside a construct
+  // (`<?xml rr=`, issue 25), so it only ever sees text whose structure is complete.
   RequireText(display_name, text, "camera file");
+  ScreenFileStorageText(display_name, text);
   try {
     const cv::FileStorage storage(std::string(text),
                                   cv::FileStorage::READ | cv::FileStorage::MEMORY);

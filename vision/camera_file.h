@@ -19,7 +19,9 @@
 // no tilt (tau_x = tau_y = 0), a principal point within a whole image of the image. Every
 // problem is an InputError at the file and the node, e.g. `cam.yml: camera_matrix: error:
 // missing` (cv::FileStorage keeps no line numbers for nodes); a syntax error carries the line
-// OpenCV reports.
+// OpenCV reports. Text whose structure is incomplete or not well formed (an unclosed tag,
+// string or bracket, an unquoted XML attribute), on which OpenCV's parsers may crash, is refused
+// at its line and column before OpenCV sees it (vision/file_storage_screen.h).
 #pragma once
 
 #include <string>
@@ -39,7 +41,7 @@ bool IsOpenCvStorage(const std::string& path);
 Camera ReadOpenCvCamera(const std::string& path);
 
 // The same from text in memory (any of the three formats); `display_name` stands for the file in
-// messages.
+// messages. Any text is safe: what OpenCV cannot read is an InputError, never a crash.
 Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& display_name);
 
 }  // namespace cfuse::vision

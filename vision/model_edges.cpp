@@ -96,18 +96,21 @@ namespace {
 // A face as the camera sees it: its corners in the camera frame, its unit normal, whether it
 // shows its edges under `visibility`, and its image polygon.
 struct SeenFace {
-  int component = -1;
+  int component = -1, index = -1;
   std::vector<Eigen::Vector3d> corners;
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector2d> image;
-  bool front = false;  // faces the camera at all
-  bool shows = false;  // and shows its edges (facing and width)
+  Eigen::Vector2d lo, hi;  // the image polygon's bounding box
+  bool front = false;      // faces the camera at all
+  bool shows = false;      // and shows its edges (facing and width)
+  // (`image` is filled for back faces too: they hide what lies behind them)
 };
 
 SeenFace See(const ConstraintGraph& graph, int component, int face, const Values& values,
              const Camera& camera, const Visibility& visibility) {
   SeenFace s;
   s.component = component;
+  s.index = face;
   const std::vector<int>& loop = graph.components[component].faces[face].loop;
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (int k : loop) {
@@ -125,8 +128,7 @@ SeenFace See(const ConstraintGraph& graph, int component, int face, const Values
                                       : Eigen::Vector3d(-centre.normalized());
   const double facing = s.normal.dot(towards);
   s.front = facing > 0;
-  if (!s.front) return s;
-  s.shows = facing >= visibility.min_facing;
+  s.shows = s.front && facing >= visibility.min_facing;
   bool finite = true;
   for (const Eigen::Vector3d& p : s.corners) {
     const Eigen::Vector2d uv = camera.Project<double>(p);
@@ -137,7 +139,12 @@ SeenFace See(const ConstraintGraph& graph, int component, int face, const Values
     s.image.clear();
     return s;
   }
-  if (visibility.min_face_width > 0) {
+  s.lo = s.hi = s.image[0];
+  for (const Eigen::Vector2d& p : s.image) {
+    s.lo = s.lo.cwiseMin(p);
+    s.hi = s.hi.cwiseMax(p);
+  }
+  if (s.shows && visibility.min_face_width > 0) {
     double area = 0, perimeter = 0;
     for (size_t k = 0; k < s.image.size(); ++k) {
       const Eigen::Vector2d& a = s.image[k];
@@ -163,17 +170,63 @@ bool InsidePolygon(const std::vector<Eigen::Vector2d>& polygon, const Eigen::Vec
 }
 
 // Whether face f lies in front of camera-frame point P (on the ray through P, nearer).
-bool InFront(const SeenFace& f, const Eigen::Vector3d& P, const Camera& camera) {
+// `margin`: a share of P's depth (pinhole) or an absolute depth (orthographic, metres) the face
+// must be nearer by.
+bool InFront(const SeenFace& f, const Eigen::Vector3d& P, const Camera& camera,
+             double margin = 1e-6) {
   if (camera.model == Camera::Model::kOrthographic) {
     if (std::abs(f.normal.z()) < 1e-12) return false;
     const double z =
         (f.normal.dot(f.corners[0]) - f.normal.x() * P.x() - f.normal.y() * P.y()) / f.normal.z();
-    return z < P.z() - 1e-6 * std::abs(P.z()) - 1e-9;
+    return z < P.z() - margin * std::abs(P.z()) - 1e-9;
   }
   const double along = f.normal.dot(P);
   if (std::abs(along) < 1e-12) return false;
   const double t = f.normal.dot(f.corners[0]) / along;  // the plane meets the ray at t P
-  return t > 0 && t < 1 - 1e-6;
+  return t > 0 && t < 1 - margin;
+}
+
+// The runs of edge A-B (camera frame), between fractions s0 and s1, that no face hides: the
+// edge sampled every 2 px of its image (at least 16 times), each sample hidden when it lies
+// inside a face's image and behind the face's plane by more than a millimetre in a metre
+// (a face meeting the edge at a corner does not hide it). The faces the edge bounds are skipped.
+// A run's ends lie halfway between its last sample and the first hidden one.
+std::vector<std::pair<double, double>> UnhiddenRuns(const ModelEdge& e,
+                                                    const std::vector<const SeenFace*>& faces,
+                                                    const Eigen::Vector3d& A,
+                                                    const Eigen::Vector3d& B, double s0, double s1,
+                                                    double image_length, const Camera& camera) {
+  std::vector<const SeenFace*> hiding;
+  for (const SeenFace* f : faces) {
+    if (f->component == e.component &&
+        std::find(e.faces.begin(), e.faces.end(), f->index) != e.faces.end()) {
+      continue;
+    }
+    hiding.push_back(f);
+  }
+  if (hiding.empty()) return {{s0, s1}};
+  const int n = std::max(16, static_cast<int>(std::ceil(image_length / 2)));
+  std::vector<std::pair<double, double>> runs;
+  double start = -1, last_seen = -1;
+  for (int k = 0; k <= n; ++k) {
+    const double u = s0 + (s1 - s0) * k / n;
+    const Eigen::Vector3d P = A + u * (B - A);
+    const Eigen::Vector2d p = camera.Project<double>(P);
+    const bool hidden =
+        p.allFinite() && std::any_of(hiding.begin(), hiding.end(), [&](const SeenFace* f) {
+          return f->lo.x() <= p.x() && p.x() <= f->hi.x() && f->lo.y() <= p.y() &&
+                 p.y() <= f->hi.y() && InsidePolygon(f->image, p) && InFront(*f, P, camera, 1e-3);
+        });
+    if (!hidden) {
+      if (start < 0) start = k == 0 ? u : u - 0.5 * (s1 - s0) / n;
+      last_seen = u;
+    } else if (start >= 0) {
+      runs.push_back({start, last_seen + 0.5 * (s1 - s0) / n});
+      start = -1;
+    }
+  }
+  if (start >= 0) runs.push_back({start, s1});
+  return runs;
 }
 
 }  // namespace
@@ -184,7 +237,7 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
   std::vector<ProjectedEdge> out;
   // Every face, seen once.
   std::map<std::pair<int, int>, SeenFace> seen;
-  std::vector<const SeenFace*> fronts;
+  std::vector<const SeenFace*> faces;
   for (size_t c = 0; c < graph.components.size(); ++c) {
     if (!graph.components[c].rigid) continue;
     for (size_t f = 0; f < graph.components[c].faces.size(); ++f) {
@@ -192,7 +245,9 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
       SeenFace& s = seen.emplace(key, See(graph, static_cast<int>(c), static_cast<int>(f), values,
                                           camera, visibility))
                         .first->second;
-      if (s.front && s.image.size() >= 3) fronts.push_back(&s);
+      // Every face hides what lies behind it, a back face too: an open model's inner walls
+      // (a tower without a roof) are seen from behind.
+      if (s.image.size() >= 3) faces.push_back(&s);
     }
   }
   const Eigen::Vector2d lo(-0.5, -0.5);
@@ -200,10 +255,23 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
                            camera.height > 0 ? camera.height - 0.5 : 1e9);
   for (size_t i = 0; i < edges.size(); ++i) {
     const ModelEdge& e = edges[i];
-    if (!e.faces.empty() && std::none_of(e.faces.begin(), e.faces.end(), [&](int f) {
-          return seen.at({e.component, f}).shows;
-        })) {
-      continue;
+    // A front face too thin to show (seen nearly edge-on, a plate's rim) puts its two long
+    // edges within its width of each other, and a line there could be either. The outer one,
+    // against a back face or nothing, is the object's silhouette, the step the image shows
+    // best: it is kept; the inner one, against a face that shows, is left out.
+    const auto shows = [&](int f) { return seen.at({e.component, f}).shows; };
+    const auto thin = [&](int f) {
+      const SeenFace& face = seen.at({e.component, f});
+      return face.front && !face.shows;
+    };
+    const bool any_thin = std::any_of(e.faces.begin(), e.faces.end(), thin);
+    const bool any_shows = std::any_of(e.faces.begin(), e.faces.end(), shows);
+    if (!e.faces.empty()) {
+      if (visibility.min_face_width > 0 && any_thin) {
+        if (any_shows) continue;
+      } else if (!any_shows) {
+        continue;
+      }
     }
     Eigen::Vector3d A = PointInCamera(graph, values, e.component, e.a);
     Eigen::Vector3d B = PointInCamera(graph, values, e.component, e.b);
@@ -211,21 +279,6 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
       if (A.z() < kNearPlane && B.z() < kNearPlane) continue;
       if (A.z() < kNearPlane) A = B + (A - B) * ((B.z() - kNearPlane) / (B.z() - A.z()));
       if (B.z() < kNearPlane) B = A + (B - A) * ((A.z() - kNearPlane) / (A.z() - B.z()));
-    }
-    if (visibility.occlusion) {
-      // Hidden when its middle and quarter points all lie behind another part's front face.
-      bool hidden = true;
-      for (double t : {0.25, 0.5, 0.75}) {
-        const Eigen::Vector3d P = A + t * (B - A);
-        const Eigen::Vector2d p = camera.Project<double>(P);
-        const bool behind =
-            p.allFinite() && std::any_of(fronts.begin(), fronts.end(), [&](const SeenFace* f) {
-              return f->component != e.component && InsidePolygon(f->image, p) &&
-                     InFront(*f, P, camera);
-            });
-        hidden = hidden && behind;
-      }
-      if (hidden) continue;
     }
     Eigen::Vector2d a = camera.Project<double>(A), b = camera.Project<double>(B);
     if (!a.allFinite() || !b.allFinite()) continue;
@@ -236,7 +289,14 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
     const double length = (b0 - a0).norm();
     const double s0 = length > 0 ? (a - a0).norm() / length : 0;
     const double s1 = length > 0 ? (b - a0).norm() / length : 1;
-    out.push_back({static_cast<int>(i), A + s0 * (B - A), A + s1 * (B - A), a, b});
+    if (!visibility.occlusion) {
+      out.push_back({static_cast<int>(i), A + s0 * (B - A), A + s1 * (B - A), a, b});
+      continue;
+    }
+    for (const auto& [u0, u1] : UnhiddenRuns(e, faces, A, B, s0, s1, (b - a).norm(), camera)) {
+      out.push_back({static_cast<int>(i), A + u0 * (B - A), A + u1 * (B - A), a0 + u0 * (b0 - a0),
+                     a0 + u1 * (b0 - a0)});
+    }
   }
   return out;
 }

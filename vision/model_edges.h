@@ -5,11 +5,12 @@
 // edge once). A face is front-facing when its outward normal (right-hand rule on its loop) has
 // a positive component towards the camera: towards the camera centre for a pinhole camera,
 // along -z for an orthographic one. An edge with faces is visible when one of its faces is
-// front-facing; an edge with none (a wire) always is. Only self-occlusion by back faces is
-// handled here, not one part hiding another (the renderer, render.h, does that with a depth
-// buffer). A visible edge is clipped to the space in front of a pinhole camera (z >= 1 mm),
-// projected at its two ends (lens distortion bends a long edge slightly; its chord is drawn),
-// and clipped to the image, [-0.5, width - 0.5] x [-0.5, height - 0.5].
+// front-facing; an edge with none (a wire) always is. A visible edge is clipped to the space in
+// front of a pinhole camera (z >= 1 mm), projected at its two ends (lens distortion bends a long
+// edge slightly; its chord is drawn), and clipped to the image, [-0.5, width - 0.5] x [-0.5,
+// height - 0.5]. With Visibility::occlusion, hidden lines are removed too: an edge is cut into
+// the pieces that no face of any component (its own included, front or back) hides, as ViSP's
+// scan-line visibility test does; the renderer (render.h) uses a depth buffer instead.
 #pragma once
 
 #include <Eigen/Core>
@@ -43,8 +44,10 @@ struct ProjectedEdge {
 // towards the camera by at least `min_facing` (the cosine of its normal with the direction to
 // the camera) and its image is at least `min_face_width` pixels across (twice its area over its
 // perimeter): a face seen nearly edge-on, or a thin plate's rim, puts its edges within a pixel
-// or two of each other, and a segment there could be either. With `occlusion`, an edge whose
-// midpoint and quarter points all lie behind another component's front face is hidden too.
+// or two of each other, and a segment there could be either: of a front face too thin to show,
+// the edge it shares with a face that shows is left out, and its outer edge (the silhouette,
+// against a back face or nothing) is kept. With `occlusion`, edges are cut
+// into the pieces no face hides (several ProjectedEdges may then share one `edge`).
 struct Visibility {
   double min_facing = 0;
   double min_face_width = 0;  // px

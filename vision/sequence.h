@@ -1,15 +1,18 @@
 // Rendered image sequences with their ground truth, for the tracker's tests and benchmarks (and
 // the demo): the model moving along a smooth trajectory, its joints swinging, rendered frame by
-// frame (render.h) with fresh clutter and noise, an occluder crossing if asked.
+// frame (render.h) with fresh clutter and noise, an occluder or a hand crossing if asked, in
+// either of the renderer's styles.
 //
 // Frame i places the model's root component at
 //   camera_from_root(i) = (Exp(spin i) R0,  t0 + velocity i + wobble sin(2π i / wobble_period))
 // (rotation vectors and translations in the camera frame, turning about the root's origin), and
 // each joint named in `joints` at centre + amplitude sin(2π i / joint_period); forward
-// kinematics places the rest.
+// kinematics places the rest. The same formulas at fractional i give the instants a shutter
+// sees (motion blur).
 #pragma once
 
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,10 +35,27 @@ struct SequenceSpec {
   // A dark bar sweeping across the image, as wide as this share of the image's width (0: none),
   // from left to right over the sequence.
   double occluder_width = 0;
-  // A sudden displacement from frame `jump_frame` on (the object knocked): the tracker's
-  // prediction misses it by that much.
+  // A sudden displacement from frame `jump_frame` on (the object knocked, half a frame
+  // before): the tracker's prediction misses it by that much.
   Eigen::Vector3d jump = Eigen::Vector3d::Zero();
   int jump_frame = -1;
+  // A hand (render.h HandOccluder) reaching in front of the object: its palm, `hand_width`
+  // across, moves from `hand_from` at frame 0 to `hand_to` at the middle frame and back to
+  // hand_from at the last (sinusoidally; camera frame, m), its forearm trailing towards
+  // hand_from. Width 0: none. Drawn sharp, in either style.
+  Eigen::Vector3d hand_from = Eigen::Vector3d::Zero(), hand_to = Eigen::Vector3d::Zero();
+  double hand_width = 0;  // m
+  // The realistic style only. Motion blur: the shutter is open for this share of the frame
+  // interval (0: no blur), centred on the frame's instant (the truth's, as for a camera stamping
+  // its frames at mid-exposure), and the object is rendered at as many evenly spread instants
+  // in it as keep consecutive ones within 2 px of each other in the image, at most
+  // `shutter_samples`.
+  double shutter = 0;
+  int shutter_samples = 8;
+  // The realistic style only. The background's sway, like a hand-held camera's: up to `shake`
+  // px along each image axis and shake / 400 rad of turn, smooth sines of periods 37, 53 and 71
+  // frames with phases from the seed.
+  double shake = 0;
 };
 
 // camera_from_model for a camera looking at `target` (model coordinates) from `distance` away,
@@ -55,10 +75,22 @@ Rigid3d LookAt(const Eigen::Vector3d& target, double azimuth, double elevation, 
 //   occluded  a bar 15 % of the image wide sweeping across, hiding up to half the edges;
 //   clutter   150 clutter lines and 40 blobs;
 //   jump      knocked 60 mm sideways halfway through (about 45 px), which no prediction
-//             foresees: the tracker's search range must double.
+//             foresees: the tracker's search range must double;
+//   hand      a hand (9 cm across the palm, 35 cm nearer the camera than the object) reaching
+//             in from the lower right over the object's centre by the middle frame and back
+//             out, hiding up to a third of the object.
+// In the realistic style (render.h), the scenario's motion is the same, and the seed also
+// chooses the look: the photographs and crops on the faces and behind (`photographs`; null or
+// empty: procedural cards, made once for the sequence), a point light 1.2-1.8 m from the
+// object high up behind it, near the mirror of the camera about the root's top (+z) face, so
+// that the top and the lid carry the highlight (specular 0.35-0.8, shininess 15-60; ambient
+// 0.4), motion blur with the shutter open half the frame interval, the background swaying 2 px,
+// 8 clutter lines and 4 blobs (150 and 40 in `clutter`), read noise 2 and shot noise of gain
+// 0.05.
 // Throws std::invalid_argument for another name or a model without a rigid root.
 SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& name, int frames,
-                              unsigned seed = 1);
+                              unsigned seed = 1, RenderStyle style = RenderStyle::kPlain,
+                              std::shared_ptr<const std::vector<GrayImage>> photographs = nullptr);
 std::vector<std::string> StandardSequenceNames();
 // 640 x 480 pixels, f = 800 px, principal point at the centre, no distortion.
 Camera StandardCamera();
@@ -79,7 +111,7 @@ struct SequenceFrame {
 std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Camera& camera,
                                           const SequenceSpec& spec);
 
-// The configuration of frame i alone (no rendering).
-Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, int i);
+// The configuration of frame i alone (no rendering); at a fractional i, the instant between.
+Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, double i);
 
 }  // namespace cfuse::vision

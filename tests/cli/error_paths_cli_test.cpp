@@ -63,7 +63,8 @@ class Workspace {
     std::string bytes((std::istreambuf_iterator<char>(png)), std::istreambuf_iterator<char>());
     Write("truncated.png", bytes.substr(0, 100));
     Write("fake.avi", "not a video\n");
-    Write("cv_syntax.yml", "%YAML:1.0\n---\nimage_width: [640\n");
+    Write("cv_syntax.yml", "%YAML:1.0\n---\nimage_width: 640\nimage_height 480\n");
+    Write("cv_truncated.yml", "%YAML:1.0\n---\nimage_width: [640\n");
   }
   ~Workspace() {
     std::error_code ec;
@@ -364,8 +365,14 @@ TEST_CASE("errors: measurement, pose, camera and joint files refused with status
                   ws.Path("dir.json") + ": error: is a directory, not a camera file");
     ExpectRefused(ws, run(ws.Path("pose.json")),
                   ws.Path("pose.json") + ":1:2: error: unknown key 'components' in camera");
-    ExpectRefused(ws, run(ws.Path("cv_syntax.yml")),
-                  ws.Path("cv_syntax.yml") + ":3: error: syntax error (cv::FileStorage)");
+    ExpectRefused(
+        ws, run(ws.Path("cv_syntax.yml")),
+        ws.Path("cv_syntax.yml") + ":4: error: syntax error (cv::FileStorage): Missing ':'");
+    // Refused before cv::FileStorage parses it (vision/file_storage_screen.h).
+    ExpectRefused(ws, run(ws.Path("cv_truncated.yml")),
+                  ws.Path("cv_truncated.yml") +
+                      ":4:1: error: expected ']' to close the flow sequence opened at 3:14, found "
+                      "the end of the file");
   }
 
   // Joint values: fk --joints.
@@ -910,6 +917,89 @@ TEST_CASE("errors: the program exits 2 for unknown options and one-line refusals
   p = RunCfuse(ws, "check --json '" + latin1 + "'");
   CHECK(p.status == 0);
   CHECK(p.err.empty());
+}
+
+// ViSP's files (importers/visp.h) and the camera's image size, through the program: each bad
+// input exits 2 with one located line, and nothing is written.
+TEST_CASE("errors: ViSP's files and the camera's size, refused by the program", "[cli][errors]") {
+  const Workspace ws("visp");
+  const std::string five = ws.Write("five.0.pos", "0.1 0.2 0.3\n0 0\n");
+  const std::string seven = ws.Write("seven.pos", "0 0 1 0 0 0 0\n");
+  const std::string no_camera =
+      ws.Write("settings.xml", "<?xml version=\"1.0\"?>\n<conf>\n  <ecm/>\n</conf>\n");
+  const std::string sizeless =
+      ws.Write("tracker.xml",
+               "<?xml version=\"1.0\"?>\n<conf>\n  <camera>\n    <px>800</px>\n"
+               "    <py>800</py>\n    <u0>320</u0>\n    <v0>240</v0>\n"
+               "  </camera>\n</conf>\n");
+  const std::string assembly = ws.Write("assembly.cao", "V1\nload(\"parts/missing.cao\")\n");
+  fs::create_directories(ws.Path("small"));
+  cv::imwrite(ws.Path("small/frame_00000.png"), cv::Mat(240, 320, CV_8U, cv::Scalar(60)));
+  const std::string box = "'" + kBox + "'";
+  auto q = [&](const std::string& relative) { return "'" + ws.Path(relative) + "'"; };
+  const std::string six =
+      "a ViSP pose is six numbers tx ty tz tux tuy tuz (metres, then the rotation vector in "
+      "radians), found ";
+  const std::string no_block =
+      ":2:1: error: these ViSP tracker settings have no <camera> (<camera> with <px>, <py>, "
+      "<u0>, <v0>): ViSP's tracker would take its default camera, cfuse needs the real one";
+  const std::string missing_load =
+      assembly + ":2:6: error: cannot open '" + ws.Path("parts/missing.cao") + "': no such file";
+  const std::string no_size = sizeless +
+                              ": error: the camera gives no image size (width and "
+                              "height), and ";
+  const std::vector<std::pair<std::string, std::string>> cases = {
+      // A .pos with the wrong count of numbers, for every command that reads a model's pose.
+      {"track " + box + " --camera " + q("camera.json") + " --images " + q("frames/*.png") +
+           " --init " + q("five.0.pos") + " -o " + q("out/t.csv") + " --overlay " + q("out/ov"),
+       five + ":2:4: error: " + six + "5"},
+      {"project " + box + " --camera " + q("camera.json") + " --pose " + q("seven.pos") + " -o " +
+           q("out/e.json"),
+       seven + ":1:13: error: " + six + "7"},
+      {"render " + box + " --camera " + q("camera.json") + " --pose " + q("five.0.pos") + " -o " +
+           q("out/r.png"),
+       five + ":2:4: error: " + six + "5"},
+      // An XML without a camera block.
+      {"project " + box + " --camera " + q("settings.xml") + " --pose " + q("pose.json") +
+           " --image " + q("image.png") + " -o " + q("out/e.json"),
+       no_camera + no_block},
+      {"track " + box + " --camera " + q("settings.xml") + " --images " + q("frames/*.png") +
+           " --init " + q("pose.json") + " -o " + q("out/t.csv"),
+       no_camera + no_block},
+      // A CAO load() of a missing file: at the load's file name.
+      {"check " + q("assembly.cao"), missing_load},
+      {"track " + q("assembly.cao") + " --camera " + q("camera.json") + " --images " +
+           q("frames/*.png") + " --init " + q("five.0.pos") + " -o " + q("out/t.csv"),
+       missing_load},
+      // Frames of another size than the camera's.
+      {"track " + box + " --camera " + q("camera.json") + " --images " + q("small/*.png") +
+           " --init " + q("pose.json") + " -o " + q("out/t.csv") + " --overlay " + q("out/ov"),
+       ws.Path("small/frame_00000.png") + ": error: the image is 320 x 240, the camera's (" +
+           ws.Path("camera.json") + ") 640 x 480"},
+      // A camera without a size, where nothing gives one.
+      {"render " + box + " --camera " + q("tracker.xml") + " --pose " + q("pose.json") + " -o " +
+           q("out/r.png"),
+       no_size + "render draws images of the camera's size: give a camera file with one"},
+      {"render " + box + " --camera " + q("tracker.xml") + " --sequence steady --frames 2 -o " +
+           q("out/seq"),
+       no_size + "render draws images of the camera's size: give a camera file with one"},
+      {"simulate " + box + " --camera " + q("tracker.xml") + " -o " + q("out/m.json") +
+           " --truth " + q("out/t.json"),
+       no_size + "simulate places the model and the clutter inside the image: give a camera file "
+                 "with one"},
+      {"project " + box + " --camera " + q("tracker.xml") + " --pose " + q("pose.json") + " -o " +
+           q("out/e.json"),
+       sizeless + ": error: the camera gives no image size (width and height) to clip the edges "
+                  "to: give --image, whose size it then takes"},
+  };
+  for (const auto& [arguments, line] : cases) {
+    INFO(arguments);
+    const std::set<std::string> before = ws.Listing();
+    const Process p = RunCfuse(ws, arguments);
+    CHECK(p.status == 2);
+    CHECK(p.err == line + "\n");
+    CHECK(ws.Listing() == before);
+  }
 }
 
 }  // namespace

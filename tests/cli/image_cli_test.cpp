@@ -1,5 +1,8 @@
 // The image commands through their Run*() functions: render, then segments and project on
 // what it wrote; every kind of bad input exits 2 with its message and writes nothing.
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
@@ -7,8 +10,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "cli/command_support.h"
 #include "cli/commands.h"
 #include "cli/image_commands.h"
+#include "cli/image_support.h"
+#include "interp/solve.h"
 #include "test_util.h"
 
 namespace cfuse::cli {
@@ -204,6 +210,73 @@ TEST_CASE("cli: the image commands refuse bad input with status 2", "[cli]") {
   r.truth = json.string();
   ExpectBadInput(r, RunRender, "distorted.json: error: the renderer draws undistorted images",
                  {json, png});
+}
+
+// ViSP's files for project: its tracker settings' camera, which gives no size, takes the image's;
+// its `.pos` pose of the object places every component of a model rigidly.
+TEST_CASE("cli: a ViSP .pos places every component; a ViSP camera takes --image's size", "[cli]") {
+  const Scene s = MakeScene();
+  const ConstraintGraph box = LoadAnyModel(testing::SourcePath("examples/hinged-box.yaml"));
+  REQUIRE(box.components.size() == 2);
+  // camera_from_object: 0.4 rad about (1, 2, 2)/3, then 1.5 m ahead.
+  const Eigen::Vector3d t(0.05, -0.1, 1.5), theta_u = 0.4 * Eigen::Vector3d(1, 2, 2) / 3;
+  const fs::path pos = s.dir / "box.0.pos";
+  std::ofstream(pos) << fmt::format("{:.17g}\n{:.17g}\n{:.17g}\n{:.17g}\n{:.17g}\n{:.17g}\n", t.x(),
+                                    t.y(), t.z(), theta_u.x(), theta_u.y(), theta_u.z());
+  const Values placed = PosedModel(box, pos.string());
+  const Eigen::Matrix3d R = Eigen::AngleAxisd(0.4, Eigen::Vector3d(1, 2, 2) / 3).toRotationMatrix();
+  for (size_t c = 0; c < box.components.size(); ++c) {
+    INFO(box.components[c].name);
+    REQUIRE(box.components[c].points.size() >= 4);
+    for (size_t f = 0; f < box.components[c].points.size(); ++f) {
+      const Eigen::Vector3d nominal =
+          ModelPoint(box, box.nominal, static_cast<int>(c), static_cast<int>(f));
+      const Eigen::Vector3d moved =
+          ModelPoint(box, placed, static_cast<int>(c), static_cast<int>(f));
+      CHECK((moved - (R * nominal + t)).norm() < 1e-12);
+    }
+  }
+
+  // The scene's camera as ViSP's tracker settings write it: no size, which --image gives.
+  const fs::path conf = s.dir / "tracker.xml";
+  std::ofstream(conf) << "<?xml version=\"1.0\"?>\n<conf>\n  <ecm><sample><step>4</step></sample>"
+                         "</ecm>\n  <camera>\n    <u0>320</u0>\n    <v0>240</v0>\n"
+                         "    <px>1600</px>\n    <py>1600</py>\n  </camera>\n</conf>\n";
+  auto project = [&](const fs::path& camera, const std::string& image, const fs::path& output) {
+    ProjectCommandOptions o;
+    o.model = testing::SourcePath("examples/hinged-box.yaml");
+    o.camera = camera.string();
+    o.pose = s.pose.string();
+    o.image = image;
+    o.output = output.string();
+    std::ostringstream out, err;
+    const int status = RunProject(o, out, err);
+    INFO(err.str());
+    return status;
+  };
+  REQUIRE(project(s.camera, "", s.dir / "cfuse_camera.json") == 0);
+  REQUIRE(project(conf, s.image.string(), s.dir / "visp_camera.json") == 0);
+  const nlohmann::json cfuse_edges = ReadJson(s.dir / "cfuse_camera.json");
+  const nlohmann::json visp_edges = ReadJson(s.dir / "visp_camera.json");
+  CHECK(visp_edges["width"] == 640);
+  CHECK(visp_edges["height"] == 480);
+  CHECK(visp_edges["edges"].size() >= 6);
+  CHECK(visp_edges == cfuse_edges);
+  // Without an image there is no size to clip to.
+  const fs::path none = s.dir / "none.json";
+  ExpectBadInput(
+      [&] {
+        ProjectCommandOptions o;
+        o.model = testing::SourcePath("examples/hinged-box.yaml");
+        o.camera = conf.string();
+        o.pose = s.pose.string();
+        o.output = none.string();
+        return o;
+      }(),
+      RunProject,
+      "tracker.xml: error: the camera gives no image size (width and height) to clip the edges "
+      "to: give --image, whose size it then takes",
+      {none});
 }
 
 }  // namespace

@@ -3,6 +3,9 @@
 // one; and every kind of bad input: unreadable frames (reported, skipped, status 2 after the
 // rest is written), a camera of another size, an empty glob, a far-off start (status 1, every
 // frame lost), a bad sequence name or output directory.
+#include <fmt/format.h>
+
+#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
@@ -12,6 +15,7 @@
 
 #include "cli/image_commands.h"
 #include "cli/track_command.h"
+#include "dsl/pose_reader.h"
 #include "test_util.h"
 
 namespace cfuse::cli {
@@ -24,9 +28,11 @@ struct Sequence {
   std::string model = testing::SourcePath("examples/hinged-box.yaml");
 };
 
-// The hinged box's steady sequence, 24 frames, rendered by `cfuse render --sequence`.
-Sequence MakeSequence(const std::string& name) {
+// The hinged box's (or `model`'s) steady sequence, 24 frames, rendered by `cfuse render
+// --sequence`.
+Sequence MakeSequence(const std::string& name, const std::string& model = "") {
   Sequence s;
+  if (!model.empty()) s.model = model;
   s.dir = fs::temp_directory_path() / ("cfuse_track_cli_test_" + name);
   fs::remove_all(s.dir);
   fs::create_directories(s.dir);
@@ -213,6 +219,54 @@ TEST_CASE("cli: track refuses bad input with status 2 and writes nothing", "[cli
     o.init = init.string();
     refused(o, "no pose for component 'lid'");
   }
+}
+
+// A ViSP user's files as they are: the camera of its tracker settings, which gives no image size
+// (the first frame's is taken), and the object's pose in a `.pos` file. The track is the one the
+// same camera and start in cfuse's own formats give.
+TEST_CASE("cli: track with ViSP's tracker settings and a .pos start", "[cli][track]") {
+  const Sequence s = MakeSequence("visp", testing::SourcePath("tests/data/cao/cube.cao"));
+  const fs::path conf = s.dir / "tracker.xml";
+  std::ofstream(conf) << "<?xml version=\"1.0\"?>\n<conf>\n  <camera>\n    <px>800</px>\n"
+                         "    <py>800</py>\n    <u0>320</u0>\n    <v0>240</v0>\n  </camera>\n"
+                         "</conf>\n";
+  const NamedPose start = dsl::ReadPoses((s.frames / "init.json").string()).components.at(0);
+  const Eigen::AngleAxisd turn(start.pose.rotation);
+  const Eigen::Vector3d t = start.pose.translation, theta_u = turn.angle() * turn.axis();
+  const fs::path pos = s.dir / "cube.0.pos";
+  std::ofstream(pos) << fmt::format("{:.17g}\n{:.17g}\n{:.17g}\n{:.17g}\n{:.17g}\n{:.17g}\n", t.x(),
+                                    t.y(), t.z(), theta_u.x(), theta_u.y(), theta_u.z());
+
+  TrackCommandOptions cfuse_files = Options(s);
+  TrackCommandOptions visp_files = Options(s);
+  visp_files.camera = conf.string();
+  visp_files.init = pos.string();
+  visp_files.output = (s.dir / "visp.csv").string();
+  for (const TrackCommandOptions* o : {&cfuse_files, &visp_files}) {
+    std::ostringstream out, err;
+    INFO(err.str());
+    REQUIRE(RunTrack(*o, out, err) == 0);
+    CHECK_THAT(out.str(), Catch::Contains("24 frames: 24 verified (100.0 %)"));
+  }
+  const auto expected = ReadCsv(cfuse_files.output), track = ReadCsv(visp_files.output);
+  REQUIRE(track.size() == 25);
+  REQUIRE(expected.size() == 25);
+  CHECK(track[0] == expected[0]);
+  for (size_t r = 1; r < track.size(); ++r) {
+    for (size_t k = 3; k < track[r].size(); ++k) {
+      CHECK(std::stod(track[r][k]) == Approx(std::stod(expected[r][k])).margin(1e-5));
+    }
+  }
+  CHECK(WorstBoxError(track, ReadCsv(s.frames / "truth.csv")) < 0.01);
+
+  // A later frame of another size than the first is skipped: the camera's size is the first's.
+  cv::imwrite((s.frames / "frame_00007.png").string(), cv::Mat(240, 320, CV_8U, cv::Scalar(90)));
+  std::ostringstream out, err;
+  CHECK(RunTrack(visp_files, out, err) == 2);
+  CHECK_THAT(err.str(), Catch::Contains("frame_00007.png: error: the image is 320 x 240, the first "
+                                        "frame's 640 x 480 (the camera, " +
+                                        conf.string() + ", gives no size): skipped"));
+  CHECK(ReadCsv(visp_files.output).size() == 24);
 }
 
 TEST_CASE("cli: a far-off start is lost on every frame: status 1, never verified", "[cli][track]") {

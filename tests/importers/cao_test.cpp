@@ -457,7 +457,8 @@ TEST_CASE("cao: malformed files are refused at the line and column", "[importers
       "V1\nload(\"x.cao\", s=[1; 2; 3])\n", "V1\nload(\"x.cao\", t=[1; 2])\n",
       "V1\nload(\"x.cao\", t=[1; 2; 3 deg])\n", "V1\nload(\"x.cao\", tu=[0; 0; 1]) junk\n",
       "V1\nload(\"x.cao\", t=[1; 2; 3], t=[1; 2; 3])\n", "V1\nload(\"x.cao\"\n",
-      "V1\nload(\"x.cao\", t=[1; 2; 3; 4])\n", "V1\nload(\"no-such.cao\")\n"};
+      "V1\nload(\"x.cao\", t=[1; 2; 3; 4])\n", "V1\nload(\"no-such.cao\")\n",
+      "V1\nload(\"x.cao\", tu=[0; 0; 450 deg])\n", "V1\nload(\"x.cao\", tu=[1e308; 1; 1])\n"};
   const testing::BadCase expected[] = {
       {"", 1, 1, "not a CAO file: it is empty; expected the header 'V1'"},
       {"", 1, 1, "not a CAO file: it is empty"},
@@ -527,6 +528,8 @@ TEST_CASE("cao: malformed files are refused at the line and column", "[importers
       {"", 2, 13, "expected ',' or ')' in load(...), found the end of the line"},
       {"", 2, 25, "expected ']' after the 3 numbers of t=[...], found ';"},
       {"", 2, 6, "cannot open 'no-such.cao': no such file"},
+      {"", 2, 15, "tu=[...] turns by 7.85398 rad, more than a whole turn (2π)"},
+      {"", 2, 15, "tu=[...] turns by inf rad, more than a whole turn (2π)"},
   };
   REQUIRE(std::size(cases) == std::size(expected));
   std::vector<testing::BadCase> bad(std::begin(expected), std::end(expected));

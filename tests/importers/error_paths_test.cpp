@@ -11,6 +11,7 @@
 
 #include "importers/cao.h"
 #include "importers/urdf.h"
+#include "importers/visp.h"
 #include "kernel/error.h"
 #include "test_util.h"
 
@@ -42,6 +43,35 @@ void ExpectRefused(const UrdfCase& c) {
 
 #define LINKS_AB "<robot name=\"r\"><link name=\"a\"/><link name=\"b\"/>\n"
 #define LINKS_ABC "<robot name=\"r\"><link name=\"a\"/><link name=\"b\"/><link name=\"c\"/>\n"
+
+// TinyXML parses nested elements by recursion: 10^5 of them (300 KB) overflowed the stack, in
+// the URDF importer (and urdfdom's own parse) and the ViSP camera reader alike. Nesting deeper
+// than 256 elements is refused at the element that goes too deep (importers/xml_document.h);
+// this test crashed before.
+TEST_CASE("error paths: XML nested too deep for TinyXML is refused, not a crash",
+          "[importers][errors]") {
+  std::string deep;
+  for (int i = 0; i < 100000; ++i) deep += "<link>";
+  const std::string urdf = "<robot name=\"r\">\n" + deep;
+  try {
+    importers::ImportUrdfFromString(urdf, "deep.urdf");
+    FAIL("accepted");
+  } catch (const InputError& e) {
+    CHECK(std::string(e.what()) ==
+          "deep.urdf:2:1531: error: elements nested more than 256 deep");  // the 256th <link>
+  }
+  const std::string camera = "<?xml version=\"1.0\"?>\n<conf>" + deep;
+  CHECK_THROWS_WITH(importers::ReadVispCameraFromString(camera, "deep.xml"),
+                    "deep.xml:2:1537: error: elements nested more than 256 deep");
+  // Comments, declarations and empty elements do not count; 256 levels are parsed.
+  std::string fine = "<?xml version=\"1.0\"?><!-- <a> <b> -->\n<conf>";
+  for (int i = 0; i < 255; ++i) fine += "<a x=\"<b>\"/><a>";
+  fine += "<camera/>";
+  for (int i = 0; i < 255; ++i) fine += "</a>";
+  fine += "</conf>\n";
+  CHECK_THROWS_WITH(importers::ReadVispCameraFromString(fine, "fine.xml"),
+                    Catch::Matchers::Contains("these ViSP tracker settings have no <camera>"));
+}
 
 TEST_CASE("error paths: URDF elements refused at their place", "[importers][errors]") {
   const UrdfCase cases[] = {

@@ -85,6 +85,8 @@ void CheckScenario(const ConstraintGraph& graph, const Bar& bar, int frames = 40
         vision::RenderSequence(graph, vision::StandardCamera(), spec);
     const Errors e = Run(graph, sequence, sequence[0].truth);
     CHECK(e.verified >= bar.verified * e.frames);
+    // No wrong pose verified: every verified frame within 10 mm of the truth.
+    CHECK(Errors::Quantile(e.translation_mm, 1.0) <= 10);
     CHECK(Errors::Quantile(e.translation_mm, 0.5) <= bar.median_mm);
     CHECK(Errors::Quantile(e.translation_mm, 0.9) <= bar.p90_mm);
     CHECK(Errors::Quantile(e.rotation_deg, 0.5) <= 1.0);
@@ -109,7 +111,10 @@ TEST_CASE("tracker: the hinged box moving fast (median motion over 15 px a frame
 }
 
 TEST_CASE("tracker: the hinged box behind a sweeping occluder", "[tracker]") {
-  CheckScenario(HingedBox(), {"occluded", 0.9, 3.0, 10.0, 2.0});
+  // While the bar hides half the box, its depth at 1.3 m is known to 6-7 mm (one standard
+  // deviation) from the edges left: those frames are refused (TrackerOptions::
+  // max_position_sigma) rather than verified with errors near 10 mm.
+  CheckScenario(HingedBox(), {"occluded", 0.75, 3.0, 8.0, 2.0});
 }
 
 TEST_CASE("tracker: the hinged box in heavy clutter", "[tracker]") {

@@ -1,0 +1,458 @@
+// Tracking on ViSP's data (docs/benchmarks.md, "Tracking on ViSP's data"): cfuse's tracker and
+// ViSP's edge tracker (vpMbGenericTracker, bench/visp_tracker.h) on the public sequences of
+// Debian's visp-images-data, each with ViSP's own model, camera, settings and initial pose, the
+// same frames in the same run.
+//
+//   visp_sequences [--sequences castle-simu,castel] [--steps 1,2,3] [--repeat 3]
+//                  [--perturb N] [--seed 1] [--csv DIR]
+//
+// Sequences (`cube` only when named: it is held back as an independent check):
+//   castle-simu  mbt-depth/Castle-simu: 40 rendered frames with the true camera pose of each;
+//                started from frame 1's true pose.
+//   castel       mbt-depth/castel: 30 real frames of the castle filling the view, with depth; no
+//                truth: the reference is ViSP's track with edges and dense depth together (its
+//                own example's), and cfuse's distance from ViSP's edges-only track is shown too;
+//                started from chateau.0.pos.
+//   cube         mbt/cube: 218 real frames of a cube pushed by hand; no truth, as castel.
+// For each sequence and frame step k (every k-th frame: k times the motion): frames verified
+// (cfuse) or returned (ViSP), frames verified more than 10 mm from the reference ("wrong"),
+// the median and worst position error of those frames, and the time per frame (the median over
+// `repeat` runs of each tracker's mean), with cfuse's split by stage.
+//
+// With --perturb N: N trials per sequence, each a fresh tracker started at a random frame from
+// the reference pose moved by 5 to 60 mm and turned by 2 to 20 degrees, tracking 5 frames: how
+// many frames are verified, and how many of those are wrong (more than 10 mm from the
+// reference, or 3 px mean edge distance). Verification must refuse every wrong one.
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "bench/visp_tracker.h"
+#include "importers/cao.h"
+#include "track/tracker.h"
+#include "vision/model_edges.h"
+
+namespace {
+
+using namespace cfuse;
+namespace fs = std::filesystem;
+
+const std::string kData = "/usr/share/visp-images-data/ViSP-images/";
+
+struct Sequence {
+  std::string name, cao, images_format;
+  int first = 0, count = 0;
+  Camera camera;
+  bench::VispOptions visp;
+  std::vector<Rigid3d> truth;  // camera_from_object per frame, when known
+  Rigid3d start;
+  // Depth frames, for the reference track of a sequence without truth (ViSP's edges and dense
+  // depth): the files, the depth camera's settings and its pose from the grey camera's.
+  std::string depth_format, depth_config;
+  Rigid3d depth_from_color;
+};
+
+Rigid3d FromThetaU(const std::vector<double>& v) {
+  const Eigen::Vector3d w(v[3], v[4], v[5]);
+  const double angle = w.norm();
+  const Eigen::Quaterniond q = angle > 0 ? Eigen::Quaterniond(Eigen::AngleAxisd(angle, w / angle))
+                                         : Eigen::Quaterniond::Identity();
+  return Rigid3d(q, Eigen::Vector3d(v[0], v[1], v[2]));
+}
+
+std::vector<double> Numbers(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<double> v;
+  double x;
+  while (in >> x) v.push_back(x);
+  return v;
+}
+
+Camera Pinhole(double px, double py, double u0, double v0) {
+  Camera c;
+  c.fx = px;
+  c.fy = py;
+  c.cx = u0;
+  c.cy = v0;
+  c.width = 640;
+  c.height = 480;
+  return c;
+}
+
+Sequence Load(const std::string& name) {
+  Sequence s;
+  s.name = name;
+  if (name == "castle-simu") {
+    const std::string d = kData + "mbt-depth/Castle-simu/";
+    s.cao = d + "Models/chateau.cao";
+    s.images_format = d + "Images/Image_{:04d}.pgm";
+    s.first = 1;
+    s.count = 40;
+    s.camera = Pinhole(700, 700, 320, 240);  // Config/chateau.xml
+    for (int k = 1; k <= s.count; ++k) {
+      const std::vector<double> m = Numbers(d + fmt::format("CameraPose/Camera_{:03d}.txt", k));
+      Eigen::Matrix3d r;
+      for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) r(i, j) = m[4 * i + j];
+      s.truth.push_back(
+          Rigid3d(Eigen::Quaterniond(r).normalized(), Eigen::Vector3d(m[3], m[7], m[11])));
+    }
+    s.start = s.truth[0];
+    s.visp.config_file = d + "Config/chateau.xml";
+    s.visp.range = 8;
+    s.visp.threshold = 10000;
+    s.visp.sample_step = 5;
+    s.visp.angle_appear_deg = 85;
+    s.visp.angle_disappear_deg = 89;
+    s.visp.near_clipping = 0.01;
+    s.visp.far_clipping = 2;
+  } else if (name == "castel") {
+    const std::string d = kData + "mbt-depth/castel/";
+    s.cao = d + "chateau.cao";
+    s.images_format = d + "castel/image_{:04d}.pgm";
+    s.first = 0;
+    s.count = 30;
+    s.camera = Pinhole(615.1674804688, 615.1675415039, 312.1889953613, 243.4373779297);
+    s.start = FromThetaU(Numbers(d + "chateau.0.pos"));
+    s.visp.config_file = d + "chateau.xml";
+    s.depth_format = d + "castel/depth_image_{:04d}.bin";
+    s.depth_config = d + "chateau_depth.xml";
+    const std::vector<double> m = Numbers(d + "depth_M_color.txt");
+    Eigen::Matrix3d r;
+    for (int i = 0; i < 3; ++i)
+      for (int j = 0; j < 3; ++j) r(i, j) = m[4 * i + j];
+    s.depth_from_color =
+        Rigid3d(Eigen::Quaterniond(r).normalized(), Eigen::Vector3d(m[3], m[7], m[11]));
+    s.visp.range = 8;
+    s.visp.threshold = 10000;
+    s.visp.sample_step = 5;
+    s.visp.angle_appear_deg = 70;
+    s.visp.angle_disappear_deg = 80;
+    s.visp.near_clipping = 0.01;
+    s.visp.far_clipping = 2;
+  } else if (name == "cube") {
+    const std::string d = kData + "mbt/";
+    s.cao = d + "cube.cao";
+    s.images_format = d + "cube/image{:04d}.pgm";
+    s.first = 0;
+    s.count = 218;
+    s.camera = Pinhole(547.7367575, 542.0744058, 338.7036994, 234.5083345);
+    s.start = FromThetaU(Numbers(d + "cube.0.pos"));
+    s.visp.config_file = d + "cube.xml";
+    s.visp.range = 7;
+    s.visp.threshold = 5000;
+    s.visp.sample_step = 4;
+    s.visp.angle_appear_deg = 65;
+    s.visp.angle_disappear_deg = 75;
+    s.visp.near_clipping = 0.1;
+    s.visp.far_clipping = 0.9;
+  } else {
+    throw std::runtime_error("unknown sequence " + name);
+  }
+  return s;
+}
+
+std::vector<cv::Mat> Frames(const Sequence& s) {
+  std::vector<cv::Mat> out;
+  for (int k = 0; k < s.count; ++k) {
+    const std::string path = fmt::format(fmt::runtime(s.images_format), s.first + k);
+    cv::Mat m = cv::imread(path, cv::IMREAD_GRAYSCALE);
+    if (m.empty()) throw std::runtime_error("cannot read " + path);
+    out.push_back(m);
+  }
+  return out;
+}
+
+// castel's depth frames (a Creative SR300): little-endian uint32 height and width, then 16-bit
+// depths in units of 0.000124986647 m, deprojected through the depth camera's intrinsics and its
+// distortion as ViSP's example mbtGenericTrackingDepth.cpp does (RealSense's Brown model).
+bench::DepthCloud ReadCastelDepth(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::uint32_t height = 0, width = 0;
+  in.read(reinterpret_cast<char*>(&height), 4);
+  in.read(reinterpret_cast<char*>(&width), 4);
+  std::vector<std::uint16_t> raw(static_cast<size_t>(width) * height);
+  in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size() * 2));
+  if (!in || width == 0) throw std::runtime_error("cannot read " + path);
+  bench::DepthCloud cloud;
+  cloud.width = static_cast<int>(width);
+  cloud.height = static_cast<int>(height);
+  cloud.points.resize(raw.size());
+  const float ppx = 311.484558f, ppy = 246.283234f, fx = 476.053619f, fy = 476.053497f;
+  const float k[5] = {0.165056542f, -0.0508309528f, 0.00435937941f, 0.00541406544f, 0.250085592f};
+  for (std::uint32_t i = 0; i < height; ++i) {
+    for (std::uint32_t j = 0; j < width; ++j) {
+      const float depth = raw[i * width + j] * 0.000124986647f;
+      float x = (j - ppx) / fx, y = (i - ppy) / fy;
+      const float r2 = x * x + y * y;
+      const float f = 1 + k[0] * r2 + k[1] * r2 * r2 + k[4] * r2 * r2 * r2;
+      const float ux = x * f + 2 * k[2] * x * y + k[3] * (r2 + 2 * x * x);
+      const float uy = y * f + 2 * k[3] * x * y + k[2] * (r2 + 2 * y * y);
+      cloud.points[i * width + j] = Eigen::Vector3f(depth * ux, depth * uy, depth);
+    }
+  }
+  return cloud;
+}
+
+Values Posed(const ConstraintGraph& graph, const Rigid3d& camera_from_object) {
+  Values v = graph.nominal;
+  for (Rigid3d& pose : v.poses) pose = camera_from_object * pose;
+  return v;
+}
+
+// The mean distance (px) of the model's visible edges at `a` from the same edges' lines at `b`.
+double EdgeDistance(const ConstraintGraph& graph, const std::vector<vision::ModelEdge>& edges,
+                    const Camera& camera, const Rigid3d& a, const Rigid3d& b) {
+  const vision::Visibility visible{0, 0, true};
+  const Values va = Posed(graph, a), vb = Posed(graph, b);
+  double sum = 0;
+  int n = 0;
+  for (const vision::ProjectedEdge& e : vision::VisibleEdges(graph, edges, va, camera, visible)) {
+    const Component& c = graph.components[edges[e.edge].component];
+    const Rigid3d& pa = va.poses[graph.blocks[c.block].index];
+    const Rigid3d& pb = vb.poses[graph.blocks[c.block].index];
+    const Eigen::Vector3d A = pa.Inverse() * e.A, B = pa.Inverse() * e.B;
+    const Eigen::Vector2d qa = camera.Project<double>(pb * A), qb = camera.Project<double>(pb * B);
+    const Eigen::Vector2d d = (qb - qa).normalized(), normal(-d.y(), d.x());
+    for (double t = 0; t <= 1.0001; t += 0.1) {
+      sum += std::abs(normal.dot(e.a + t * (e.b - e.a) - qa));
+      ++n;
+    }
+  }
+  return n > 0 ? sum / n : 0;
+}
+
+double Median(std::vector<double> v) {
+  if (v.empty()) return NAN;
+  std::sort(v.begin(), v.end());
+  return v[v.size() / 2];
+}
+
+std::string Num(double x, int digits = 2) {
+  return std::isnan(x) ? "-" : fmt::format("{:.{}f}", x, digits);
+}
+
+struct Run {
+  std::vector<track::Verification> verification;
+  std::vector<double> position_sigma;
+  std::vector<bool> accepted;
+  std::vector<Rigid3d> poses;
+  std::vector<double> ms;
+  track::FrameTimes mean;
+};
+
+Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
+               const std::vector<int>& picked, const Rigid3d& start) {
+  Run run;
+  track::Tracker tracker(graph, s.camera, Posed(graph, start));
+  for (int k : picked) {
+    const cv::Mat& m = frames[k];
+    const track::TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
+    run.accepted.push_back(f.verified);
+    run.verification.push_back(f.verification);
+    run.position_sigma.push_back(f.position_sigma);
+    run.poses.push_back(f.estimate.mean.poses[0] * graph.nominal.poses[0].Inverse());
+    run.ms.push_back(f.times.Total());
+    run.mean.segments += f.times.segments / picked.size();
+    run.mean.prediction += f.times.prediction / picked.size();
+    run.mean.search += f.times.search / picked.size();
+    run.mean.estimation += f.times.estimation / picked.size();
+    run.mean.verification += f.times.verification / picked.size();
+  }
+  return run;
+}
+
+Run TrackVisp(const Sequence& s, const std::vector<cv::Mat>& frames, const std::vector<int>& picked,
+              const Rigid3d& start) {
+  std::vector<const std::uint8_t*> pixels;
+  for (int k : picked) pixels.push_back(frames[k].data);
+  Run run;
+  for (const bench::PeerFrame& f :
+       bench::TrackWithVisp(pixels, 640, 480, s.camera, s.cao, start, s.visp)) {
+    run.accepted.push_back(f.ok);
+    run.poses.push_back(f.camera_from_object);
+    run.ms.push_back(f.ms);
+  }
+  return run;
+}
+
+double Mean(const std::vector<double>& v) {
+  double s = 0;
+  for (double x : v) s += x;
+  return v.empty() ? NAN : s / v.size();
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  CLI::App app{"cfuse's tracker and ViSP's on visp-images-data's sequences"};
+  std::string names = "castle-simu,castel", csv_dir;
+  std::vector<int> steps = {1, 2, 3};
+  int repeat = 3, perturb = 0;
+  unsigned seed = 1;
+  app.add_option("--sequences", names, "castle-simu, castel, cube (held back)");
+  app.add_option("--steps", steps, "frame steps")->delimiter(',');
+  app.add_option("--repeat", repeat, "runs per cell for the times");
+  app.add_option("--perturb", perturb, "perturbed-start trials per sequence");
+  app.add_option("--seed", seed);
+  app.add_option("--csv", csv_dir, "write each run's track here");
+  CLI11_PARSE(app, argc, argv);
+
+  std::vector<std::string> sequences;
+  std::stringstream list(names);
+  for (std::string n; std::getline(list, n, ',');) sequences.push_back(n);
+
+  fmt::print(
+      "| sequence | k | tracker | frames verified | verified wrong | error median / worst (mm) | "
+      "from ViSP's edges, median (mm) | ms a frame | split (evidence, prediction, search, "
+      "estimation, verification) |\n|---|---|---|---|---|---|---|---|---|\n");
+  for (const std::string& name : sequences) {
+    const Sequence s = Load(name);
+    const std::vector<cv::Mat> frames = Frames(s);
+    const ConstraintGraph graph = importers::ImportCao(s.cao);
+    const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
+    // The reference: the truth, or ViSP's own track at step 1.
+    std::vector<Rigid3d> reference = s.truth;
+    std::vector<int> all(s.count);
+    for (int k = 0; k < s.count; ++k) all[k] = k;
+    if (reference.empty() && !s.depth_format.empty()) {
+      std::vector<bench::DepthCloud> clouds;
+      std::vector<const std::uint8_t*> pixels;
+      for (int k = 0; k < s.count; ++k) {
+        clouds.push_back(ReadCastelDepth(fmt::format(fmt::runtime(s.depth_format), s.first + k)));
+        pixels.push_back(frames[k].data);
+      }
+      for (const bench::PeerFrame& f :
+           bench::TrackWithVispDepth(pixels, 640, 480, s.camera, s.cao, s.start, s.visp, clouds,
+                                     s.depth_config, s.depth_from_color)) {
+        reference.push_back(f.camera_from_object);
+      }
+    }
+    // ViSP's edges alone at step 1 too: the trajectory cfuse's should stay near.
+    const std::vector<Rigid3d> visp_edges = TrackVisp(s, frames, all, s.start).poses;
+    if (reference.empty()) reference = visp_edges;
+    if (!csv_dir.empty()) {
+      std::ofstream out(fs::path(csv_dir) / fmt::format("{}_reference.csv", name));
+      out << "frame,x,y,z,qw,qx,qy,qz\n";
+      for (size_t i = 0; i < reference.size(); ++i) {
+        const Rigid3d& p = reference[i];
+        out << fmt::format("{},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f},{:.7f}\n", i,
+                           p.translation.x(), p.translation.y(), p.translation.z(), p.rotation.w(),
+                           p.rotation.x(), p.rotation.y(), p.rotation.z());
+      }
+    }
+    for (int k : steps) {
+      std::vector<int> picked;
+      for (int i = 0; i < s.count; i += k) picked.push_back(i);
+      for (const char* who : {"cfuse", "ViSP"}) {
+        const bool ours = std::string(who) == "cfuse";
+        std::vector<double> means;
+        Run run;
+        for (int r = 0; r < repeat; ++r) {
+          run = ours ? TrackCfuse(graph, s, frames, picked, s.start)
+                     : TrackVisp(s, frames, picked, s.start);
+          means.push_back(Mean(run.ms));
+        }
+        std::vector<double> errors, from_visp;
+        int accepted = 0, wrong = 0;
+        for (size_t i = 0; i < picked.size(); ++i) {
+          if (!run.accepted[i]) continue;
+          ++accepted;
+          const Rigid3d& ref = reference[picked[i]];
+          const double mm = 1000 * (run.poses[i].translation - ref.translation).norm();
+          const double px = EdgeDistance(graph, edges, s.camera, run.poses[i], ref);
+          errors.push_back(mm);
+          from_visp.push_back(
+              1000 * (run.poses[i].translation - visp_edges[picked[i]].translation).norm());
+          wrong += mm > 10 || px > 3;
+        }
+        const std::string split =
+            ours ? fmt::format("{:.2f}, {:.2f}, {:.2f}, {:.2f}, {:.2f}", run.mean.segments,
+                               run.mean.prediction, run.mean.search, run.mean.estimation,
+                               run.mean.verification)
+                 : "";
+        fmt::print("| {} | {} | {} | {}/{} | {} | {} / {} | {} | {:.2f} | {} |\n", name, k, who,
+                   accepted, picked.size(), wrong, Num(Median(errors)),
+                   Num(errors.empty() ? NAN : *std::max_element(errors.begin(), errors.end())),
+                   s.truth.empty() ? Num(Median(from_visp)) : "", Median(means), split);
+        if (!csv_dir.empty()) {
+          std::ofstream out(fs::path(csv_dir) / fmt::format("{}_k{}_{}.csv", name, k, who));
+          out << "frame,accepted,x,y,z,qw,qx,qy,qz,ms,share,chance,dominant,least,distance,"
+                 "samples\n";
+          for (size_t i = 0; i < picked.size(); ++i) {
+            const Rigid3d& p = run.poses[i];
+            const track::Verification v =
+                run.verification.empty() ? track::Verification{} : run.verification[i];
+            out << fmt::format(
+                "{},{},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f},{:.7f},{:.3f},{:.3f},{:.3f},{:.3f}"
+                ","
+                "{:.3f},{:.3f},{}\n",
+                picked[i], run.accepted[i] ? 1 : 0, p.translation.x(), p.translation.y(),
+                p.translation.z(), p.rotation.w(), p.rotation.x(), p.rotation.y(), p.rotation.z(),
+                run.ms[i], v.share, v.chance, v.dominant_share, v.least_component, v.mean_distance,
+                v.samples);
+          }
+        }
+      }
+    }
+    if (perturb > 0) {
+      std::mt19937 rng(seed);
+      std::uniform_real_distribution<double> unit(0, 1);
+      auto direction = [&] {
+        Eigen::Vector3d v;
+        do v = Eigen::Vector3d(unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5);
+        while (v.norm() < 1e-3 || v.norm() > 0.5);
+        return v.normalized();
+      };
+      int frames_run = 0, verified = 0, wrong = 0;
+      constexpr int kLength = 5;
+      for (int trial = 0; trial < perturb; ++trial) {
+        const int start = static_cast<int>(unit(rng) * (s.count - kLength));
+        const Rigid3d& ref = reference[start];
+        const double mm = 5 + 55 * unit(rng), deg = 2 + 18 * unit(rng);
+        const Eigen::Quaterniond turn(Eigen::AngleAxisd(deg * M_PI / 180, direction()));
+        const Rigid3d off(turn * ref.rotation, ref.translation + 0.001 * mm * direction());
+        std::vector<int> picked;
+        for (int i = start; i < start + kLength; ++i) picked.push_back(i);
+        const Run run = TrackCfuse(graph, s, frames, picked, off);
+        for (size_t i = 0; i < picked.size(); ++i) {
+          ++frames_run;
+          if (!run.accepted[i]) continue;
+          ++verified;
+          const Rigid3d& truth = reference[picked[i]];
+          const double err = 1000 * (run.poses[i].translation - truth.translation).norm();
+          const double px = EdgeDistance(graph, edges, s.camera, run.poses[i], truth);
+          if (err > 10 || px > 3) {
+            ++wrong;
+            const track::Verification& v = run.verification[i];
+            fmt::print(stderr,
+                       "perturbed {} trial {} frame {}: verified {:.1f} mm / {:.1f} px off "
+                       "(start {:.0f} mm {:.0f} deg; sigma {:.1f} mm agreement {:.2f} share {:.2f} "
+                       "chance {:.2f} dominant {:.2f} "
+                       "least {:.2f} distance {:.2f} n {}) pose {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} "
+                       "{:.7f} {:.7f}\n",
+                       name, trial, picked[i], err, px, mm, deg, 1000 * run.position_sigma[i],
+                       v.agreement, v.share, v.chance, v.dominant_share, v.least_component,
+                       v.mean_distance, v.samples, run.poses[i].translation.x(),
+                       run.poses[i].translation.y(), run.poses[i].translation.z(),
+                       run.poses[i].rotation.w(), run.poses[i].rotation.x(),
+                       run.poses[i].rotation.y(), run.poses[i].rotation.z());
+          }
+        }
+      }
+      fmt::print("\nperturbed starts, {}: {} trials, {} frames, {} verified, {} verified wrong\n\n",
+                 name, perturb, frames_run, verified, wrong);
+    }
+  }
+  return 0;
+}

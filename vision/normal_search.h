@@ -1,0 +1,46 @@
+// Edge evidence by one-dimensional searches across a predicted edge (Harris's RAPiD, 1992; the
+// moving edges of ViSP's tracker, Bouthemy 1989): where a model edge is predicted, the image is
+// read along the edge's normal, a few pixels either way, and every place where the grey level
+// steps across that normal is a hit. Only the pixels near the predicted edges are read, so a
+// frame costs what the model's outline costs, not what the image holds: a real close-up full of
+// texture costs no more than a rendered box on a plain background.
+//
+// The profile at a sample point p with unit normal n (tangent τ, n rotated by -90 degrees) is
+//   P(k) = mean_{j = -h..h} I(p + k n + j τ),   k integer (bilinear interpolation),
+// an average along the edge that suppresses texture at other orientations (like ViSP's
+// oriented masks), and the step across the normal at k is the central difference
+//   D(k) = P(k + 1) - P(k - 1)   (grey levels; an ideal step of contrast C gives D = C).
+// A hit is a local maximum of |D| of at least `min_contrast`, placed to sub-pixel precision by
+// the parabola through |D| at k - 1, k, k + 1 (an ideal step between pixels k and k + 1 is found
+// at k + 0.5). Its polarity is the sign of D: positive where the image is brighter on the side
+// the normal points to.
+//
+// Coordinates: pixels, x right, y down, pixel centres at integer coordinates (camera.h).
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "vision/segments.h"
+
+namespace cfuse::vision {
+
+struct NormalSearchOptions {
+  double min_contrast = 10;  // grey levels: |D| a hit needs
+  int half_width = 2;        // px averaged either side along the edge (5 px in all)
+  int max_hits = 4;          // the strongest hits kept per search
+};
+
+struct ProfileHit {
+  float offset = 0;    // px along the normal from the sample point
+  float contrast = 0;  // D at the hit: signed, positive when brighter along +normal
+};
+
+// The hits within `range` px of `point` along `normal` (unit), strongest first, at most
+// `options.max_hits`, appended to `hits` (which is not cleared). Profile points whose tangent
+// average leaves the image end the search on that side. Returns the number appended.
+int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
+                      const Eigen::Vector2f& normal, float range,
+                      const NormalSearchOptions& options, std::vector<ProfileHit>* hits);
+
+}  // namespace cfuse::vision
