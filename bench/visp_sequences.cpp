@@ -20,7 +20,8 @@
 // `repeat` runs of each tracker's mean), with cfuse's split by stage.
 //
 // With --perturb N: N trials per sequence, each a fresh tracker started at a random frame from
-// the reference pose moved by 5 to 60 mm and turned by 2 to 20 degrees, tracking 5 frames: how
+// the reference pose moved by 10 to 100 % of --perturb-mm (60) and turned by 10 to 100 % of
+// --perturb-deg (20 degrees), tracking 5 frames: how
 // many frames are verified, and how many of those are wrong (more than 10 mm from the
 // reference, or 3 px mean edge distance). Verification must refuse every wrong one.
 #include <fmt/format.h>
@@ -252,9 +253,12 @@ struct Run {
 };
 
 Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
-               const std::vector<int>& picked, const Rigid3d& start) {
+               const std::vector<int>& picked, const Rigid3d& start,
+               track::EdgeEvidence evidence = track::EdgeEvidence::kNormalSearch) {
   Run run;
-  track::Tracker tracker(graph, s.camera, Posed(graph, start));
+  track::TrackerOptions options;
+  options.evidence = evidence;
+  track::Tracker tracker(graph, s.camera, Posed(graph, start), options);
   for (int k : picked) {
     const cv::Mat& m = frames[k];
     const track::TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
@@ -299,13 +303,22 @@ int main(int argc, char** argv) {
   std::string names = "castle-simu,castel", csv_dir;
   std::vector<int> steps = {1, 2, 3};
   int repeat = 3, perturb = 0;
+  double perturb_mm = 60, perturb_deg = 20;
   unsigned seed = 1;
   app.add_option("--sequences", names, "castle-simu, castel, cube (held back)");
   app.add_option("--steps", steps, "frame steps")->delimiter(',');
   app.add_option("--repeat", repeat, "runs per cell for the times");
   app.add_option("--perturb", perturb, "perturbed-start trials per sequence");
+  app.add_option("--perturb-mm", perturb_mm, "the largest displacement of a perturbed start");
+  app.add_option("--perturb-deg", perturb_deg, "the largest turn of a perturbed start");
   app.add_option("--seed", seed);
   app.add_option("--csv", csv_dir, "write each run's track here");
+  bool segments = false;
+  int jitter = 1;
+  app.add_option("--jitter", jitter,
+                 "cfuse runs per cell, each from the start moved by up to 1 mm and 0.3 degrees "
+                 "(the first unmoved): a track's spread over nearly equal starts");
+  app.add_flag("--segments", segments, "cfuse with segments for edge evidence too");
   CLI11_PARSE(app, argc, argv);
 
   std::vector<std::string> sequences;
@@ -354,18 +367,39 @@ int main(int argc, char** argv) {
     for (int k : steps) {
       std::vector<int> picked;
       for (int i = 0; i < s.count; i += k) picked.push_back(i);
-      for (const char* who : {"cfuse", "ViSP"}) {
-        const bool ours = std::string(who) == "cfuse";
+      for (const std::string who : {"cfuse", "cfuse (segments)", "ViSP"}) {
+        if (who == "cfuse (segments)" && !segments) continue;
+        const bool ours = who != "ViSP";
         std::vector<double> means;
         Run run;
+        std::vector<Run> runs;  // the jittered starts' (cfuse)
+        std::mt19937 jitter_rng(seed);
+        for (int j = 1; ours && j < jitter; ++j) {
+          std::uniform_real_distribution<double> unit(-1, 1);
+          const Eigen::Vector3d move(unit(jitter_rng), unit(jitter_rng), unit(jitter_rng));
+          const Eigen::Vector3d turn(unit(jitter_rng), unit(jitter_rng), unit(jitter_rng));
+          const Rigid3d start(Eigen::Quaterniond(Eigen::AngleAxisd(0.3 * M_PI / 180 * turn.norm(),
+                                                                   turn.normalized())) *
+                                  s.start.rotation,
+                              s.start.translation + 0.001 * move);
+          runs.push_back(TrackCfuse(graph, s, frames, picked, start,
+                                    who == "cfuse" ? track::EdgeEvidence::kNormalSearch
+                                                   : track::EdgeEvidence::kSegments));
+        }
         for (int r = 0; r < repeat; ++r) {
-          run = ours ? TrackCfuse(graph, s, frames, picked, s.start)
-                     : TrackVisp(s, frames, picked, s.start);
+          run = !ours ? TrackVisp(s, frames, picked, s.start)
+                      : TrackCfuse(graph, s, frames, picked, s.start,
+                                   who == "cfuse" ? track::EdgeEvidence::kNormalSearch
+                                                  : track::EdgeEvidence::kSegments);
           means.push_back(Mean(run.ms));
         }
         std::vector<double> errors, from_visp;
         int accepted = 0, wrong = 0;
-        for (size_t i = 0; i < picked.size(); ++i) {
+        runs.insert(runs.begin(), run);
+        const size_t total = picked.size() * runs.size();
+        for (size_t q = 0; q < total; ++q) {
+          const Run& run = runs[q / picked.size()];
+          const size_t i = q % picked.size();
           if (!run.accepted[i]) continue;
           ++accepted;
           const Rigid3d& ref = reference[picked[i]];
@@ -382,11 +416,16 @@ int main(int argc, char** argv) {
                                run.mean.verification)
                  : "";
         fmt::print("| {} | {} | {} | {}/{} | {} | {} / {} | {} | {:.2f} | {} |\n", name, k, who,
-                   accepted, picked.size(), wrong, Num(Median(errors)),
+                   accepted, total, wrong, Num(Median(errors)),
                    Num(errors.empty() ? NAN : *std::max_element(errors.begin(), errors.end())),
                    s.truth.empty() ? Num(Median(from_visp)) : "", Median(means), split);
         if (!csv_dir.empty()) {
-          std::ofstream out(fs::path(csv_dir) / fmt::format("{}_k{}_{}.csv", name, k, who));
+          std::string file = who;
+          std::replace(file.begin(), file.end(), ' ', '_');
+          file.erase(
+              std::remove_if(file.begin(), file.end(), [](char c) { return c == '(' || c == ')'; }),
+              file.end());
+          std::ofstream out(fs::path(csv_dir) / fmt::format("{}_k{}_{}.csv", name, k, file));
           out << "frame,accepted,x,y,z,qw,qx,qy,qz,ms,share,chance,dominant,least,distance,"
                  "samples\n";
           for (size_t i = 0; i < picked.size(); ++i) {
@@ -415,16 +454,32 @@ int main(int argc, char** argv) {
         return v.normalized();
       };
       int frames_run = 0, verified = 0, wrong = 0;
+      int peer_frames = 0, peer_wrong = 0, peer_final_within = 0, cfuse_final_within = 0;
       constexpr int kLength = 5;
       for (int trial = 0; trial < perturb; ++trial) {
         const int start = static_cast<int>(unit(rng) * (s.count - kLength));
         const Rigid3d& ref = reference[start];
-        const double mm = 5 + 55 * unit(rng), deg = 2 + 18 * unit(rng);
+        const double mm = perturb_mm * (0.1 + 0.9 * unit(rng)),
+                     deg = perturb_deg * (0.1 + 0.9 * unit(rng));
         const Eigen::Quaterniond turn(Eigen::AngleAxisd(deg * M_PI / 180, direction()));
         const Rigid3d off(turn * ref.rotation, ref.translation + 0.001 * mm * direction());
         std::vector<int> picked;
         for (int i = start; i < start + kLength; ++i) picked.push_back(i);
         const Run run = TrackCfuse(graph, s, frames, picked, off);
+        // ViSP from the same start on the same frames: where edges alone take a tracker that
+        // has no verification.
+        const Run peer = TrackVisp(s, frames, picked, off);
+        for (size_t i = 0; i < picked.size(); ++i) {
+          const double err =
+              1000 * (peer.poses[i].translation - reference[picked[i]].translation).norm();
+          peer_frames += 1;
+          peer_wrong += peer.accepted[i] && err > 10;
+          peer_final_within += i + 1 == picked.size() && err <= 10;
+        }
+        cfuse_final_within +=
+            run.accepted.back() &&
+            1000 * (run.poses.back().translation - reference[picked.back()].translation).norm() <=
+                10;
         for (size_t i = 0; i < picked.size(); ++i) {
           ++frames_run;
           if (!run.accepted[i]) continue;
@@ -450,8 +505,12 @@ int main(int argc, char** argv) {
           }
         }
       }
-      fmt::print("\nperturbed starts, {}: {} trials, {} frames, {} verified, {} verified wrong\n\n",
-                 name, perturb, frames_run, verified, wrong);
+      fmt::print(
+          "\nperturbed starts, {}: {} trials, {} frames, {} verified, {} verified wrong; "
+          "within 10 mm at the trial's last frame: cfuse (verified) {}, ViSP {} (ViSP "
+          "returned {} frames more than 10 mm off)\n\n",
+          name, perturb, frames_run, verified, wrong, cfuse_final_within, peer_final_within,
+          peer_wrong);
     }
   }
   return 0;

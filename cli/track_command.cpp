@@ -10,6 +10,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <opencv2/imgproc.hpp>
 #include <opencv2/videoio.hpp>
 #include <opencv2/videoio/registry.hpp>
@@ -217,7 +218,7 @@ std::string Ranges(const std::vector<int>& frames, size_t max_items = 8) {
 
 }  // namespace
 
-std::string TrackCsvHeader(const ConstraintGraph& graph) {
+std::string TrackCsvHeader(const ConstraintGraph& graph, bool fit) {
   std::string out = "frame,time_ms,verified";
   for (const Component& c : graph.components) {
     if (!c.rigid) continue;
@@ -228,11 +229,12 @@ std::string TrackCsvHeader(const ConstraintGraph& graph) {
   for (const Joint& j : graph.joints) {
     if (HasJointVariable(j.type)) out += "," + j.name;
   }
+  if (fit) out += ",support,sigma_mm";
   return out + "\n";
 }
 
 std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms, bool verified,
-                        const Values& values) {
+                        const Values& values, const track::TrackedFrame* fit) {
   std::string out = fmt::format("{},{:.3f},{}", frame, time_ms, verified ? 1 : 0);
   for (const Component& c : graph.components) {
     if (!c.rigid) continue;
@@ -244,6 +246,9 @@ std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms,
   }
   const Eigen::VectorXd joints = JointValues(graph, values);
   for (Eigen::Index k = 0; k < joints.size(); ++k) out += fmt::format(",{:.6f}", joints[k]);
+  if (fit) {
+    out += fmt::format(",{:.3f},{:.2f}", fit->verification.share, 1000 * fit->position_sigma);
+  }
   return out + "\n";
 }
 
@@ -276,9 +281,11 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     // counted so that the prediction spans them all the same.
     std::optional<track::Tracker> tracker;
     int skipped_before_first = 0;
-    std::string csv = TrackCsvHeader(graph);
+    std::string csv = TrackCsvHeader(graph, true);
     std::vector<double> ms;
     std::vector<int> lost, unreadable;
+    // The lost frames' refusals by kind: how many, and the first one's words.
+    std::map<int, std::pair<int, std::string>> why_lost;
     std::vector<std::string> unreadable_why;
     track::FrameTimes sum;
     int frames = 0, verified = 0;
@@ -326,14 +333,22 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
       const track::TrackedFrame f = tracker->Track(view);
       ++frames;
       verified += f.verified ? 1 : 0;
-      if (!f.verified) lost.push_back(frame);
+      if (!f.verified) {
+        lost.push_back(frame);
+        // Grouped by the test that failed, with the first frame's words for it.
+        auto& [count, words] = why_lost[static_cast<int>(f.verification.refusal)];
+        if (count++ == 0) {
+          words = f.verification.why.empty() ? std::string("too few edges matched")
+                                             : f.verification.why;
+        }
+      }
       ms.push_back(f.times.Total());
       sum.segments += f.times.segments;
       sum.prediction += f.times.prediction;
       sum.search += f.times.search;
       sum.estimation += f.times.estimation;
       sum.verification += f.times.verification;
-      csv += TrackCsvRow(graph, frame, f.times.Total(), f.verified, f.estimate.mean);
+      csv += TrackCsvRow(graph, frame, f.times.Total(), f.verified, f.estimate.mean, &f);
       if (!options.overlay.empty()) {
         if (frames == 1) {
           // (created with the first frame tracked: an input error before leaves nothing behind)
@@ -372,9 +387,17 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     report << fmt::format("track: '{}', {} frames: {} verified ({:.1f} %){}\n", graph.name, frames,
                           verified, 100.0 * verified / n,
                           lost.empty() ? "" : ", lost: " + Ranges(lost));
+    if (!why_lost.empty()) {
+      // The reason most lost frames gave (a refusal says why).
+      const auto most = std::max_element(
+          why_lost.begin(), why_lost.end(),
+          [](const auto& a, const auto& b) { return a.second.first < b.second.first; });
+      report << fmt::format("lost, most often ({} of {}): {}\n", most->second.first, lost.size(),
+                            most->second.second);
+    }
     if (!ms.empty()) {
       report << fmt::format(
-          "time per frame: median {:.2f} ms, worst {:.2f} ms (mean: segments {:.2f}, prediction "
+          "time per frame: median {:.2f} ms, worst {:.2f} ms (mean: edges {:.2f}, prediction "
           "{:.2f}, search {:.2f}, estimation {:.2f}, verification {:.2f})\n",
           Median(ms), *std::max_element(ms.begin(), ms.end()), sum.segments / n, sum.prediction / n,
           sum.search / n, sum.estimation / n, sum.verification / n);

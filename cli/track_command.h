@@ -19,6 +19,7 @@
 
 #include "constraints/graph.h"
 #include "kernel/values.h"
+#include "track/tracker.h"
 
 namespace cfuse::cli {
 
@@ -36,9 +37,12 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
 
 // The track file's header and rows: frame, time_ms, verified, then each rigid component's pose
 // in the camera frame (NAME.x, .y, .z in metres, NAME.qw, .qx, .qy, .qz), then each joint's
-// value under its name (radians or metres). `cfuse render --sequence` writes its truth so.
-std::string TrackCsvHeader(const ConstraintGraph& graph);
+// value under its name (radians or metres); with the fit (`cfuse track`), the share of the
+// visible outline the image supports and the position sigma in millimetres
+// (track::Verification::share, track::TrackedFrame::position_sigma). `cfuse render --sequence`
+// writes its truth so, without the fit.
+std::string TrackCsvHeader(const ConstraintGraph& graph, bool fit = false);
 std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms, bool verified,
-                        const Values& values);
+                        const Values& values, const track::TrackedFrame* fit = nullptr);
 
 }  // namespace cfuse::cli

@@ -87,13 +87,17 @@ double Overlap(const EdgeModel& e, const EdgeCandidate& c) {
 
 namespace {
 
+// px: a hit wider than this at half maximum is smeared by motion (vision/normal_search.h: real
+// edges are 2 to 4 px wide); its width beyond is counted as the edge's error.
+constexpr float kSmearedWidth = 5;
+
 struct Sample {
   double s = 0;              // px along the piece from a
   int first = 0, count = 0;  // its hits in the piece's hit list
 };
 
 struct Hit {
-  float offset = 0, contrast = 0;
+  float offset = 0, contrast = 0, width = 0;
   bool used = false;
 };
 
@@ -231,7 +235,7 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
       Sample sample{s, static_cast<int>(hits.size()), 0};
       for (const vision::ProfileHit& h : found) {
         if (expected != 0 && (h.contrast > 0 ? 1 : -1) != expected) continue;
-        hits.push_back({h.offset, h.contrast, false});
+        hits.push_back({h.offset, h.contrast, h.width, false});
         ++sample.count;
       }
       samples.push_back(sample);
@@ -260,7 +264,7 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
       Inliers(samples, hits, line, options.inlier, &chosen);
       double s_min = 1e300, s_max = -1e300;
       int plus = 0, minus = 0, on_line = 0;
-      double contrast = 0;
+      double contrast = 0, smear = 0;
       for (size_t k = 0; k < samples.size(); ++k) {
         if (chosen[k] < 0) continue;
         ++on_line;
@@ -268,6 +272,7 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
         s_max = std::max(s_max, samples[k].s);
         (hits[chosen[k]].contrast > 0 ? plus : minus) += 1;
         contrast += std::abs(hits[chosen[k]].contrast);
+        smear += std::max(0.f, hits[chosen[k]].width - kSmearedWidth);
         hits[chosen[k]].used = true;
       }
       if (on_line < needed || s_max - s_min < 1) continue;  // its hits are spent
@@ -276,13 +281,15 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
       c.a = e.a + s_min * e.dir + line.Offset(s_min) * e.normal;
       c.b = e.a + s_max * e.dir + line.Offset(s_max) * e.normal;
       // The fit's covariance at the two ends (c0 and c1 independent about the hits' centre),
-      // plus what the model and the camera add at each.
+      // plus what the model and the camera add at each, and a smeared step's width: motion
+      // blur moves every hit of the edge alike, so more hits do not average it away.
       const double hit_var = std::pow(std::max(scatter, options.min_hit_sigma), 2);
       Eigen::Matrix2d J;
       J << 1, s_min - line.centre, 1, s_max - line.centre;
       const Eigen::Matrix2d fit =
           J * Eigen::Vector2d(hit_var / count, hit_var / sxx).asDiagonal() * J.transpose();
-      c.noise = fit + e.noise * e.noise * Eigen::Matrix2d::Identity();
+      const double blur = smear / on_line / std::sqrt(12.0);
+      c.noise = fit + (e.noise * e.noise + blur * blur) * Eigen::Matrix2d::Identity();
       c.support = static_cast<double>(on_line) / n;
       c.polarity = minus == 0 ? 1 : plus == 0 ? -1 : 0;
       c.hits = on_line;
@@ -299,6 +306,103 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
     out.erase(std::remove_if(out.begin() + static_cast<long>(before), out.end(),
                              [](const EdgeCandidate& c) { return c.probability <= 0; }),
               out.end());
+  }
+  return out;
+}
+
+std::vector<EdgeCandidate> StrongestStepCandidates(const vision::GrayView& image,
+                                                   const std::vector<EdgeModel>& edges,
+                                                   const EdgeAppearance& appearance,
+                                                   const EvidenceOptions& options, double reach) {
+  std::vector<EdgeCandidate> out;
+  std::vector<vision::ProfileHit> found;
+  std::vector<double> s, d, w;
+  for (size_t i = 0; i < edges.size(); ++i) {
+    const EdgeModel& e = edges[i];
+    const double margin = std::min(options.end_margin, 0.25 * e.length);
+    const double span = e.length - 2 * margin;
+    const int n = std::max(2, static_cast<int>(std::floor(span / options.sample_step)) + 1);
+    const double spacing = span / (n - 1);
+    s.clear();
+    d.clear();
+    double contrast = 0;
+    int plus = 0, minus = 0;
+    for (int k = 0; k < n; ++k) {
+      const double at = margin + k * spacing;
+      const double u = at / e.length;
+      found.clear();
+      vision::SearchAlongNormal(image, (e.a + at * e.dir).cast<float>(), e.normal.cast<float>(),
+                                static_cast<float>(reach), options.search, &found);
+      const int expected = appearance.Polarity(e.edge, e.t0 + u * (e.t1 - e.t0));
+      for (const vision::ProfileHit& h : found) {  // strongest first
+        if (expected != 0 && (h.contrast > 0 ? 1 : -1) != expected) continue;
+        s.push_back(at);
+        d.push_back(h.offset);
+        contrast += std::abs(h.contrast);
+        (h.contrast > 0 ? plus : minus) += 1;
+        break;
+      }
+    }
+    const int needed = std::max(3, static_cast<int>(std::ceil(options.min_support * n)));
+    if (static_cast<int>(s.size()) < needed) continue;
+    // IRLS: a weighted line through (s, d), Tukey's weights from the robust scale.
+    w.assign(s.size(), 1.0);
+    double c0 = 0, c1 = 0, centre = 0, sxx = 0, sw = 0, scale = 0;
+    for (int iteration = 0; iteration < 6; ++iteration) {
+      sw = 0;
+      double ms = 0, md = 0;
+      for (size_t k = 0; k < s.size(); ++k) {
+        sw += w[k];
+        ms += w[k] * s[k];
+        md += w[k] * d[k];
+      }
+      if (sw < 3) break;
+      centre = ms / sw;
+      c0 = md / sw;
+      double xy = 0;
+      sxx = 0;
+      for (size_t k = 0; k < s.size(); ++k) {
+        sxx += w[k] * (s[k] - centre) * (s[k] - centre);
+        xy += w[k] * (s[k] - centre) * (d[k] - c0);
+      }
+      if (sxx <= 0) break;
+      c1 = xy / sxx;
+      std::vector<double> r(s.size());
+      for (size_t k = 0; k < s.size(); ++k) r[k] = std::abs(d[k] - c0 - c1 * (s[k] - centre));
+      std::vector<double> sorted = r;
+      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+      scale = std::max(1.4826 * sorted[sorted.size() / 2], options.min_hit_sigma);
+      for (size_t k = 0; k < s.size(); ++k) {
+        const double x = r[k] / (4.685 * scale);
+        w[k] = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+      }
+    }
+    int inliers = 0;
+    double s_min = 1e300, s_max = -1e300, rr = 0;
+    for (size_t k = 0; k < s.size(); ++k) {
+      if (w[k] <= 0) continue;
+      ++inliers;
+      s_min = std::min(s_min, s[k]);
+      s_max = std::max(s_max, s[k]);
+      const double r = d[k] - c0 - c1 * (s[k] - centre);
+      rr += w[k] * r * r;
+    }
+    if (inliers < needed || s_max - s_min < 1 || sxx <= 0 || sw < 3) continue;
+    EdgeCandidate c;
+    c.edge = static_cast<int>(i);
+    c.a = e.a + s_min * e.dir + (c0 + c1 * (s_min - centre)) * e.normal;
+    c.b = e.a + s_max * e.dir + (c0 + c1 * (s_max - centre)) * e.normal;
+    const double hit_var = std::max(rr / std::max(1.0, sw - 2), std::pow(options.min_hit_sigma, 2));
+    Eigen::Matrix2d J;
+    J << 1, s_min - centre, 1, s_max - centre;
+    c.noise = J * Eigen::Vector2d(hit_var / sw, hit_var / sxx).asDiagonal() * J.transpose() +
+              e.noise * e.noise * Eigen::Matrix2d::Identity();
+    c.support = static_cast<double>(inliers) / n;
+    c.polarity = minus == 0 ? 1 : plus == 0 ? -1 : 0;
+    c.hits = inliers;
+    c.strength = contrast / static_cast<double>(s.size());
+    c.probability = 1;
+    out.push_back(c);
   }
   return out;
 }

@@ -93,6 +93,17 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
                                                   const EvidenceOptions& options,
                                                   SearchStatistics* statistics = nullptr);
 
+// One candidate per edge from its samples' strongest steps (ViSP's moving edges): each sample's
+// strongest step of the settled polarity within `reach` px, a line fitted through them by
+// iteratively reweighted least squares (Tukey's biweight at 4.685 robust standard deviations),
+// kept when at least `min_support` of the samples (and 3) lie on it. Where matching is settled
+// (a refinement about an estimate), the strongest step near each sample is the edge's, whatever
+// texture lies beside it; a line of a few outlying samples does not tilt the fit.
+std::vector<EdgeCandidate> StrongestStepCandidates(const vision::GrayView& image,
+                                                   const std::vector<EdgeModel>& edges,
+                                                   const EdgeAppearance& appearance,
+                                                   const EvidenceOptions& options, double reach);
+
 // The segment candidates of every edge (segments detected in the edges' window); `window`
 // receives the window searched (for overlays).
 std::vector<EdgeCandidate> SegmentCandidates(const vision::GrayView& image,

@@ -81,7 +81,8 @@ std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
     e.silhouette = !m.faces.empty() && front == 1 && m.faces.size() <= 2 &&
                    (m.faces.size() == 1 || front == 1);
     SetImage(p.a, p.b, &e);
-    e.noise = pixel_sigma;
+    // An edge with a twin (a thin face's far side) that close: the image may show either.
+    e.noise = std::hypot(pixel_sigma, p.twin_width);
     if (!PredictVariance(camera, state, &e)) continue;
     out.push_back(e);
   }

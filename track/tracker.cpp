@@ -52,6 +52,23 @@ double Tracker::PositionSigma(const GaussianState& state,
   return worst;
 }
 
+double Tracker::Spread(const GaussianState& before, const GaussianState& after) const {
+  double worst = 0;
+  for (const Component& c : graph_.components) {
+    if (!c.rigid) continue;
+    const int o = graph_.blocks[c.block].tangent_offset;
+    const Eigen::Matrix<double, 6, 6> prior = before.covariance.block<6, 6>(o, o);
+    const Eigen::Matrix<double, 6, 6> posterior = after.covariance.block<6, 6>(o, o);
+    // The largest ratio of variances along any direction: the generalised eigenvalues of
+    // (posterior, prior).
+    const Eigen::GeneralizedSelfAdjointEigenSolver<Eigen::Matrix<double, 6, 6>> ratio(
+        posterior, prior, Eigen::EigenvaluesOnly);
+    if (ratio.info() != Eigen::Success) return 1;
+    worst = std::max(worst, std::sqrt(std::max(0.0, ratio.eigenvalues().maxCoeff())));
+  }
+  return worst;
+}
+
 Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Values& initial,
                  TrackerOptions options)
     : graph_(graph), camera_(camera), options_(std::move(options)) {
@@ -178,6 +195,8 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
     if (d == 0 || (attempt.verified &&
                    (!out.verified || attempt.verification.share > out.verification.share))) {
       out = std::move(attempt);
+    } else if (!out.verified && !attempt.verification.why.empty()) {
+      out.verification = std::move(attempt.verification);  // a wider range's reason
     }
     out.times = spent;
     out.branches = branches;
@@ -296,6 +315,7 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
         if (v.verified && typical_agreement_ > 0 &&
             v.agreement < options_.min_share_of_typical * typical_agreement_) {
           v.verified = false;
+          v.refusal = Refusal::kTypical;
           v.why = fmt::format(
               "the outline agrees with the image at {:.0f} % of its samples, at "
               "{:.0f} % in the frames before",
@@ -310,6 +330,19 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
                 "the matches leave the pose undetermined: a point of the model "
                 "is known to {:.1f} mm, {:.1f} mm at most",
                 1000 * sigma, 1000 * options_.max_position_sigma);
+          }
+        }
+        // Every part pinned down by the matches, not by the prediction: a lid whose top edge
+        // is out of view turns about its hinge with its side edges sliding along themselves.
+        if (v.verified) {
+          const double spread = Spread(prior.constrained, set->state);
+          if (spread > options_.max_spread) {
+            v.verified = false;
+            v.refusal = Refusal::kSpread;
+            v.why = fmt::format(
+                "a part is no better known than predicted in some direction "
+                "(its standard deviation {:.0f} % of the prediction's)",
+                100 * spread);
           }
         }
         // As well supported as this sequence's verified frames are: the search ends.
@@ -366,34 +399,53 @@ void Tracker::Refine(const vision::GrayView& image, const FramePrior& prior,
     const std::vector<EdgeModel> edges =
         PredictEdges(graph_, edges_, set->state, camera_, options_.visibility, model_sigma_,
                      options_.min_edge_pixels);
-    const std::vector<EdgeCandidate> candidates = Candidates(image, edges);
-    // Each edge's line by where it lies (the set's estimate with the model's error) times the
-    // evidence behind it (hits times their contrast): among lines as near as the model's error
-    // allows, the strongest step, as ViSP's moving edges take.
-    std::vector<int> best(edges.size(), -1);
-    std::vector<double> score(candidates.size(), 0.0);
-    for (size_t c = 0; c < candidates.size(); ++c) {
-      if (candidates[c].probability < options_.search.min_probability) continue;
-      score[c] = std::exp(-0.5 * CandidateDistance(edges[candidates[c].edge], candidates[c])) *
-                 candidates[c].hits * candidates[c].strength;
-      int& b = best[candidates[c].edge];
-      if (b < 0 || score[c] > score[b]) b = static_cast<int>(c);
-    }
+    std::vector<EdgeCandidate> candidates;
     std::vector<int> chosen;
-    for (int b : best) {
-      if (b >= 0) chosen.push_back(b);
+    if (options_.refine_strongest) {
+      candidates = StrongestStepCandidates(image, edges, appearance_, options_.evidence_options,
+                                           options_.refine_reach);
+      for (size_t c = 0; c < candidates.size(); ++c) chosen.push_back(static_cast<int>(c));
+    } else {
+      candidates = Candidates(image, edges);
+      // Each edge's line by where it lies (the set's estimate with the model's error) times the
+      // evidence behind it (hits times their contrast): among lines as near as the model's error
+      // allows, the strongest step, as ViSP's moving edges take.
+      std::vector<int> best(edges.size(), -1);
+      std::vector<double> score(candidates.size(), 0.0);
+      for (size_t c = 0; c < candidates.size(); ++c) {
+        if (candidates[c].probability < options_.search.min_probability) continue;
+        score[c] = std::exp(-0.5 * CandidateDistance(edges[candidates[c].edge], candidates[c])) *
+                   candidates[c].hits * candidates[c].strength;
+        int& b = best[candidates[c].edge];
+        if (b < 0 || score[c] > score[b]) b = static_cast<int>(c);
+      }
+      for (int b : best) {
+        if (b >= 0) chosen.push_back(b);
+      }
     }
     MatchedSet next;
     double sigma = model_sigma_;
     bool ok = false;
-    for (int pass = 0; pass < 4 && static_cast<int>(chosen.size()) >= needed; ++pass) {
+    // Iteratively reweighted: each match's weight from its distance to its edge by Tukey's
+    // biweight at 4.685 robust standard deviations (ViSP's estimator), a match past it dropped;
+    // its noise grown by the inverse of its weight.
+    std::vector<double> weight(chosen.size(), 1.0);
+    for (int pass = 0; pass < 6; ++pass) {
       std::vector<Factor> factors;
-      for (int c : chosen) {
-        const EdgeCandidate& k = candidates[c];
+      std::vector<int> used;
+      for (size_t i = 0; i < chosen.size(); ++i) {
+        if (weight[i] <= 0) continue;
+        const EdgeCandidate& k = candidates[chosen[i]];
         // The candidate's noise carries the tracker's model sigma; this pass's replaces it.
-        const Eigen::Matrix2d noise =
-            k.noise + (sigma * sigma - model_sigma_ * model_sigma_) * Eigen::Matrix2d::Identity();
+        const Eigen::Matrix2d noise = (k.noise + (sigma * sigma - model_sigma_ * model_sigma_) *
+                                                     Eigen::Matrix2d::Identity()) /
+                                      weight[i];
         factors.push_back(EdgeFactor(camera_, edges[k.edge], k.a, k.b, noise));
+        used.push_back(static_cast<int>(i));
+      }
+      if (static_cast<int>(factors.size()) < needed) {
+        ok = false;
+        break;
       }
       ok = SolveMatches(constraints_, prior.free, factors, graph_.blocks, dof_,
                         options_.search.accept_confidence, &next);
@@ -407,17 +459,25 @@ void Tracker::Refine(const vision::GrayView& image, const FramePrior& prior,
       }
       std::vector<double> sorted = distance;
       std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-      const double scale = 1.4826 * sorted[sorted.size() / 2];
-      const double next_sigma = std::clamp(scale, options_.pixel_sigma, options_.max_model_sigma);
+      const double scale = std::clamp(1.4826 * sorted[sorted.size() / 2], options_.pixel_sigma,
+                                      options_.max_model_sigma);
+      double change = 0;
+      for (size_t j = 0; j < used.size(); ++j) {
+        const double x = distance[j] / (4.685 * scale);
+        const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+        change = std::max(change, std::abs(w - weight[used[j]]));
+        weight[used[j]] = w;
+      }
+      next.model_sigma = scale;
+      sigma = std::max(sigma, scale);
+      if (ok && change < 0.05) break;
+    }
+    {
       std::vector<int> kept;
       for (size_t i = 0; i < chosen.size(); ++i) {
-        if (distance[i] <= 3 * next_sigma) kept.push_back(chosen[i]);
+        if (weight[i] > 0) kept.push_back(chosen[i]);
       }
-      next.model_sigma = next_sigma;
-      if (ok && kept.size() == chosen.size() && next_sigma <= sigma * 1.2) break;
       chosen = std::move(kept);
-      sigma = std::max(sigma, next_sigma);
-      ok = false;
     }
     // Kept only when it explains at least as many edges as the set had.
     if (!ok || chosen.size() < set->lines.size()) return;

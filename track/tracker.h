@@ -77,6 +77,16 @@ struct TrackerOptions {
   // few edges of one direction) do not verify a frame. (What is hidden or out of view is as
   // uncertain as its covariance says.)
   double max_position_sigma = 0.004;
+  // ... and every component pinned down by the matches rather than the prediction: its
+  // standard deviation after them at most this share of the prediction's, in every direction.
+  double max_spread = 0.9;
+  // How a set that passed is refined (Tracker::Refine): by each edge's most probable line about
+  // the set's estimate (the default), or by each sample's strongest step within `refine_reach`
+  // px as ViSP's moving edges take them (StrongestStepCandidates). The second converges from
+  // further off on a real close-up (castel) but follows strong lines beside an edge (a
+  // rendered castle's stairs): docs/benchmarks.md.
+  bool refine_strongest = false;
+  double refine_reach = 8;
   // Re-acquisition after a loss: the places tried a frame, around the last verified pose.
   int reacquisition_places = 12;
   MatchSearchOptions search;
@@ -145,6 +155,9 @@ class Tracker {
   // The prior about `predicted`, `scale` times the usual reach.
   FramePrior Prior(const Values& predicted, double scale) const;
   bool TryFrom(const vision::GrayView& image, const FramePrior& prior, TrackedFrame* out);
+  // The largest ratio of a component's standard deviation after the matches to before, in any
+  // direction (1: the matches taught nothing of it).
+  double Spread(const GaussianState& before, const GaussianState& after) const;
   // m: the largest standard deviation of a visible piece's end under `state`'s covariance.
   double PositionSigma(const GaussianState& state, const std::vector<EdgeModel>& visible) const;
   std::vector<EdgeCandidate> Candidates(const vision::GrayView& image,

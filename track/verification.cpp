@@ -8,6 +8,32 @@
 
 namespace cfuse::track {
 
+const char* RefusalName(Refusal refusal) {
+  switch (refusal) {
+    case Refusal::kNone:
+      return "verified";
+    case Refusal::kNoEdges:
+      return "no edge in view";
+    case Refusal::kShare:
+      return "too little of the outline supported";
+    case Refusal::kChance:
+      return "no more support on the edges than beside them";
+    case Refusal::kDominance:
+      return "the strongest steps lie beside the edges";
+    case Refusal::kComponent:
+      return "a part in view unsupported";
+    case Refusal::kParallel:
+      return "support on parallel edges only";
+    case Refusal::kTypical:
+      return "far less agreement than the frames before";
+    case Refusal::kUndetermined:
+      return "the matches leave the pose undetermined";
+    case Refusal::kSpread:
+      return "a part no better known than predicted";
+  }
+  return "?";
+}
+
 Verification VerifyOutline(const vision::GrayView& image, const std::vector<EdgeModel>& edges,
                            const vision::NormalSearchOptions& search,
                            const VerificationOptions& options) {
@@ -76,6 +102,7 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
   }
   if (out.samples == 0) {
     out.why = "no edge in view";
+    out.refusal = Refusal::kNoEdges;
     return out;
   }
   out.share = static_cast<double>(out.supported) / out.samples;
@@ -103,20 +130,25 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
   const double beyond_chance =
       probes_supported + options.z * std::sqrt(2 * out.samples * p0 * (1 - p0) + 1);
   if (out.share < options.min_share) {
+    out.refusal = Refusal::kShare;
     out.why = fmt::format("{:.0f} % of the outline supported, {:.0f} % needed", 100 * out.share,
                           100 * options.min_share);
   } else if (out.supported <= beyond_chance) {
+    out.refusal = Refusal::kChance;
     out.why = fmt::format("{} of {} samples supported, {} a few pixels off the edges",
                           out.supported, out.samples, probes_supported);
   } else if (out.dominant_share < options.min_dominant) {
+    out.refusal = Refusal::kDominance;
     out.why = fmt::format(
         "the strongest step lies on the edge at {:.0f} % of the outline, {:.0f} "
         "% needed",
         100 * out.dominant_share, 100 * options.min_dominant);
   } else if (out.least_component < options.min_component_share) {
+    out.refusal = Refusal::kComponent;
     out.why = fmt::format("a part in view has {:.0f} % of its outline supported",
                           100 * out.least_component);
   } else if (out.parallel_share > options.max_parallel_share) {
+    out.refusal = Refusal::kParallel;
     out.why = "the support lies on parallel edges only";
   } else {
     out.verified = true;

@@ -46,8 +46,24 @@ struct VerificationOptions {
   double max_parallel_share = 0.85;
 };
 
+// The test a refused estimate failed first.
+enum class Refusal {
+  kNone,
+  kNoEdges,       // nothing of the model in view
+  kShare,         // too little of the outline supported
+  kChance,        // no more support on the edges than off them
+  kDominance,     // the strongest steps lie off the edges
+  kComponent,     // a part in view without support
+  kParallel,      // the support on parallel edges only
+  kTypical,       // far less agreement than the sequence's verified frames (tracker.h)
+  kUndetermined,  // the visible edges' ends not known to max_position_sigma (tracker.h)
+  kSpread,        // a part no better known than predicted in some direction (tracker.h)
+};
+const char* RefusalName(Refusal refusal);
+
 struct Verification {
   bool verified = false;
+  Refusal refusal = Refusal::kNone;
   int samples = 0, supported = 0;
   double share = 0;           // supported / samples
   double chance = 0;          // the share of the places off the edges supported

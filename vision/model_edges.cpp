@@ -101,6 +101,7 @@ struct SeenFace {
   Eigen::Vector3d normal = Eigen::Vector3d::Zero();
   std::vector<Eigen::Vector2d> image;
   Eigen::Vector2d lo, hi;  // the image polygon's bounding box
+  double width = 0;        // px: twice its image's area over its perimeter
   bool front = false;      // faces the camera at all
   bool shows = false;      // and shows its edges (facing and width)
   // (`image` is filled for back faces too: they hide what lies behind them)
@@ -144,7 +145,7 @@ SeenFace See(const ConstraintGraph& graph, int component, int face, const Values
     s.lo = s.lo.cwiseMin(p);
     s.hi = s.hi.cwiseMax(p);
   }
-  if (s.shows && visibility.min_face_width > 0) {
+  if (s.front && visibility.min_face_width > 0) {
     double area = 0, perimeter = 0;
     for (size_t k = 0; k < s.image.size(); ++k) {
       const Eigen::Vector2d& a = s.image[k];
@@ -152,7 +153,8 @@ SeenFace See(const ConstraintGraph& graph, int component, int face, const Values
       area += a.x() * b.y() - a.y() * b.x();
       perimeter += (b - a).norm();
     }
-    s.shows = s.shows && perimeter > 0 && std::abs(area) / perimeter >= visibility.min_face_width;
+    s.width = perimeter > 0 ? std::abs(area) / perimeter : 0;
+    s.shows = s.shows && s.width >= visibility.min_face_width;
   }
   return s;
 }
@@ -265,6 +267,10 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
       return face.front && !face.shows;
     };
     const bool any_thin = std::any_of(e.faces.begin(), e.faces.end(), thin);
+    double twin_width = 0;
+    for (int f : e.faces) {
+      if (thin(f)) twin_width = std::max(twin_width, seen.at({e.component, f}).width);
+    }
     const bool any_shows = std::any_of(e.faces.begin(), e.faces.end(), shows);
     if (!e.faces.empty()) {
       if (visibility.min_face_width > 0 && any_thin) {

@@ -73,10 +73,23 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
     const float left = i - 1 >= first + 1 ? std::abs(d(i - 1)) : 0.f;
     const float right = i + 1 <= last - 1 ? std::abs(d(i + 1)) : 0.f;
     if (!(here > left && here >= right)) continue;
+    // The run above half the peak, within the valid profile: the hit's width.
+    const float half = 0.5f * here;
+    int a = i, b = i;
+    while (a - 1 >= first + 1 && std::abs(d(a - 1)) >= half) --a;
+    while (b + 1 <= last - 1 && std::abs(d(b + 1)) >= half) ++b;
+    auto crossing = [&](int inside, int outside) {
+      const float vi = std::abs(d(inside));
+      const float vo = outside >= first + 1 && outside <= last - 1 ? std::abs(d(outside)) : 0.f;
+      return static_cast<float>(inside) +
+             (vi > vo ? (vi - half) / (vi - vo) : 0.5f) * static_cast<float>(outside - inside);
+    };
+    const float width = crossing(b, b + 1) - crossing(a, a - 1);
     const float curvature = left - 2 * here + right;
-    const float shift =
-        curvature < 0 ? std::clamp(0.5f * (left - right) / curvature, -0.5f, 0.5f) : 0.f;
-    hits->push_back({static_cast<float>(i - K - 1) + shift, d(i)});
+    const float centre =
+        static_cast<float>(i) +
+        (curvature < 0 ? std::clamp(0.5f * (left - right) / curvature, -0.5f, 0.5f) : 0.f);
+    hits->push_back({centre - static_cast<float>(K + 1), d(i), width});
   }
   // The strongest first, at most max_hits.
   auto begin = hits->begin() + before;

@@ -10,10 +10,15 @@
 // an average along the edge that suppresses texture at other orientations (like ViSP's
 // oriented masks), and the step across the normal at k is the central difference
 //   D(k) = P(k + 1) - P(k - 1)   (grey levels; an ideal step of contrast C gives D = C).
-// A hit is a local maximum of |D| of at least `min_contrast`, placed to sub-pixel precision by
-// the parabola through |D| at k - 1, k, k + 1 (an ideal step between pixels k and k + 1 is found
-// at k + 0.5). Its polarity is the sign of D: positive where the image is brighter on the side
-// the normal points to.
+// A hit is a local maximum of |D| of at least `min_contrast`, placed by the parabola through |D|
+// at k - 1, k, k + 1 (an ideal step between pixels k and k + 1 is found at k + 0.5). Its width
+// is that of |D| above half its peak: about 2 px for a sharp step, 2 to 4 for a real edge, the
+// motion for a step smeared by motion blur (whose |D| is a plateau: where on it the peak falls
+// is noise, which the tracker counts in the edge's error, track/edge_evidence.h). (Placing a
+// wide step at its plateau's centroid was tried: it follows the shaded side of real edges,
+// whose profiles are not symmetric, and moved a real close-up's track by 10 mm.) The run's width is
+// the hit's: about 2 px for a sharp step, the motion for a blurred one. Its polarity is the sign
+// of D: positive where the image is brighter on the side the normal points to.
 //
 // Coordinates: pixels, x right, y down, pixel centres at integer coordinates (camera.h).
 #pragma once
@@ -34,6 +39,7 @@ struct NormalSearchOptions {
 struct ProfileHit {
   float offset = 0;    // px along the normal from the sample point
   float contrast = 0;  // D at the hit: signed, positive when brighter along +normal
+  float width = 0;     // px: |D|'s width at half its peak
 };
 
 // The hits within `range` px of `point` along `normal` (unit), strongest first, at most

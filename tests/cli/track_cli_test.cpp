@@ -104,10 +104,17 @@ TEST_CASE("cli: render --sequence, then track it from a glob, with overlays", "[
   const auto track = ReadCsv(o.output);
   const auto truth = ReadCsv(s.frames / "truth.csv");
   REQUIRE(track.size() == 25);
-  // The same columns as the truth: frame, time_ms, verified, box's 7, lid's 7, hinge.
-  CHECK(track[0] == truth[0]);
-  CHECK(track[0].size() == 3 + 7 + 7 + 1);
-  CHECK(track[0].back() == "hinge");
+  // The truth's columns (frame, time_ms, verified, box's 7, lid's 7, hinge), then the fit.
+  REQUIRE(track[0].size() == truth[0].size() + 2);
+  CHECK(std::equal(truth[0].begin(), truth[0].end(), track[0].begin()));
+  CHECK(track[0].size() == 3 + 7 + 7 + 1 + 2);
+  CHECK(track[0][track[0].size() - 3] == "hinge");
+  CHECK(track[0][track[0].size() - 2] == "support");
+  CHECK(track[0].back() == "sigma_mm");
+  for (size_t r = 1; r < track.size(); ++r) {
+    CHECK(std::stod(track[r][track[r].size() - 2]) >= 0.5);  // verified: half the outline
+    CHECK(std::stod(track[r].back()) <= 4.0);                // and determined to 4 mm
+  }
   for (size_t r = 1; r < track.size(); ++r) {
     CHECK(track[r][0] == std::to_string(r - 1));
     CHECK(std::stod(track[r][1]) > 0);

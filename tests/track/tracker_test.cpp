@@ -157,6 +157,30 @@ TEST_CASE("tracker: a knock beyond the search range is found by doubling it", "[
   CHECK(lost);
 }
 
+TEST_CASE("tracker: knocked beyond every search range, found again by re-acquisition",
+          "[tracker]") {
+  const ConstraintGraph graph = RigidBox();
+  vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 40, 5);
+  spec.jump = Eigen::Vector3d(0.16, 0.04, 0);  // about 100 px, past the doubled range
+  spec.jump_frame = 15;
+  const std::vector<vision::SequenceFrame> sequence =
+      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const Errors e = Run(graph, sequence, sequence[0].truth);
+  for (double t : e.translation_mm) CHECK(t <= 10);
+  CHECK_FALSE(e.track[15].verified);
+  // Found again within ten frames, and held from then on.
+  int found = -1;
+  for (int i = 16; i < 26 && found < 0; ++i) {
+    if (e.track[i].verified) found = i;
+  }
+  REQUIRE(found > 0);
+  CHECK(e.track[found].reacquired);
+  for (int i = found; i < 40; ++i) {
+    CAPTURE(i);
+    CHECK(e.track[i].verified);
+  }
+}
+
 TEST_CASE("tracker: a far-off start is lost, never verified as a wrong pose", "[tracker]") {
   const ConstraintGraph graph = HingedBox();
   const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 20, 3);
