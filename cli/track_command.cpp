@@ -338,8 +338,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
         // Grouped by the test that failed, with the first frame's words for it.
         auto& [count, words] = why_lost[static_cast<int>(f.verification.refusal)];
         if (count++ == 0) {
-          words = f.verification.why.empty() ? std::string("too few edges matched")
-                                             : f.verification.why;
+          words = f.verification.why;
         }
       }
       ms.push_back(f.times.Total());

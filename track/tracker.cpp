@@ -262,6 +262,10 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
     last_verified_ = frame_;
   } else {
     out.estimate = first_prior;
+    if (out.verification.refusal == Refusal::kNone) {
+      out.verification.refusal = Refusal::kNoMatches;
+      out.verification.why = RefusalName(Refusal::kNoMatches);
+    }
   }
   ++frame_;
   return out;

@@ -49,6 +49,7 @@ struct VerificationOptions {
 // The test a refused estimate failed first.
 enum class Refusal {
   kNone,
+  kNoMatches,     // no set of matches passed the residual test (too few edges matched)
   kNoEdges,       // nothing of the model in view
   kShare,         // too little of the outline supported
   kChance,        // no more support on the edges than off them

@@ -17,6 +17,7 @@
 #include "test_util.h"
 #include "track/overlay.h"
 #include "vision/sequence.h"
+#include "vision/texture.h"
 
 namespace cfuse::track {
 namespace {
@@ -75,18 +76,32 @@ struct Bar {
   double median_mm;     // translation error, at most
   double p90_mm;        // 90th percentile
   double median_joint;  // degrees
+  vision::RenderStyle style = vision::RenderStyle::kPlain;
 };
+
+// The photographs of Debian's visp-images-data on the realistic renders' faces and backgrounds
+// (procedural cards when the package is missing, vision/texture.h).
+std::shared_ptr<const std::vector<vision::GrayImage>> Photographs() {
+  static const auto photographs = std::make_shared<const std::vector<vision::GrayImage>>(
+      vision::LoadPhotographs(vision::VispPhotographPaths()));
+  return photographs;
+}
 
 void CheckScenario(const ConstraintGraph& graph, const Bar& bar, int frames = 40) {
   for (unsigned seed : {1u, 2u}) {
-    CAPTURE(bar.scenario, seed);
-    const vision::SequenceSpec spec = vision::StandardSequence(graph, bar.scenario, frames, seed);
+    CAPTURE(bar.scenario, seed, vision::RenderStyleName(bar.style));
+    const vision::SequenceSpec spec = vision::StandardSequence(
+        graph, bar.scenario, frames, seed, bar.style,
+        bar.style == vision::RenderStyle::kRealistic ? Photographs() : nullptr);
     const std::vector<vision::SequenceFrame> sequence =
         vision::RenderSequence(graph, vision::StandardCamera(), spec);
     const Errors e = Run(graph, sequence, sequence[0].truth);
     CHECK(e.verified >= bar.verified * e.frames);
     // No wrong pose verified: every verified frame within 10 mm of the truth.
     CHECK(Errors::Quantile(e.translation_mm, 1.0) <= 10);
+    // ... and its joint within 6 degrees (the most measured: 5.2, a lid in realistic clutter;
+    // docs/benchmarks.md).
+    if (!graph.joints.empty()) CHECK(Errors::Quantile(e.joint_deg, 1.0) <= 6);
     CHECK(Errors::Quantile(e.translation_mm, 0.5) <= bar.median_mm);
     CHECK(Errors::Quantile(e.translation_mm, 0.9) <= bar.p90_mm);
     CHECK(Errors::Quantile(e.rotation_deg, 0.5) <= 1.0);
@@ -126,6 +141,55 @@ TEST_CASE("tracker: a robot from its URDF, links with box primitives (the hinged
   const ConstraintGraph graph =
       importers::ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
   CheckScenario(graph, {"steady", 1.0, 3.0, 5.0, 1.5});
+}
+
+// Realistic renders (vision/render.h): photographs printed on the faces and behind the object,
+// shading with a highlight, motion blur, sensor noise, a hand passing in front.
+TEST_CASE("tracker: the hinged box, realistic: texture, highlight, blur, a hand", "[tracker]") {
+  const ConstraintGraph graph = HingedBox();
+  const auto realistic = vision::RenderStyle::kRealistic;
+  CheckScenario(graph, {"steady", 1.0, 2.5, 4.0, 0.5, realistic});
+  CheckScenario(graph, {"hand", 0.95, 2.5, 4.0, 0.5, realistic});
+  CheckScenario(graph, {"occluded", 0.8, 2.5, 4.0, 0.5, realistic});
+  CheckScenario(graph, {"clutter", 0.95, 3.0, 5.0, 0.5, realistic});
+  CheckScenario(graph, {"jump", 0.95, 2.5, 4.0, 0.5, realistic});
+}
+
+TEST_CASE("tracker: a robot from its URDF, realistic", "[tracker]") {
+  const ConstraintGraph graph =
+      importers::ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
+  CheckScenario(graph, {"steady", 1.0, 2.5, 4.0, 1.0, vision::RenderStyle::kRealistic});
+  CheckScenario(graph, {"hand", 0.95, 2.5, 4.0, 1.0, vision::RenderStyle::kRealistic});
+}
+
+TEST_CASE("tracker: a cabinet, drawer and door (8 DOF, three parts), with default options",
+          "[tracker]") {
+  const ConstraintGraph graph =
+      dsl::LoadModel(testing::SourcePath("tests/data/models/cabinet.yaml"));
+  // (Its realistic renders are not here: with the door nearly edge-on against a photograph of a
+  // calibration grid, a frame 15 mm off was verified; docs/benchmarks.md.)
+  CheckScenario(graph, {"steady", 1.0, 2.0, 3.0, 0.5}, 60);
+}
+
+TEST_CASE("tracker: a 10 mm plate, its rims' two outlines 6 px apart: never verified wrong",
+          "[tracker]") {
+  // Which outline of a rim the image shows depends on the light; the plate's depth is then not
+  // determined to the tracker's 4 mm, and its frames are refused (the twin edges are not yet
+  // told apart: docs/benchmarks.md).
+  const ConstraintGraph graph = dsl::LoadModel(testing::SourcePath("tests/data/models/plate.yaml"));
+  for (const auto style : {vision::RenderStyle::kPlain, vision::RenderStyle::kRealistic}) {
+    CAPTURE(vision::RenderStyleName(style));
+    const vision::SequenceSpec spec = vision::StandardSequence(
+        graph, "steady", 30, 1, style,
+        style == vision::RenderStyle::kRealistic ? Photographs() : nullptr);
+    const std::vector<vision::SequenceFrame> sequence =
+        vision::RenderSequence(graph, vision::StandardCamera(), spec);
+    const Errors e = Run(graph, sequence, sequence[0].truth);
+    for (double t : e.translation_mm) CHECK(t <= 10);
+    for (const TrackedFrame& f : e.track) {
+      if (!f.verified) CHECK(f.verification.refusal != Refusal::kNone);
+    }
+  }
 }
 
 TEST_CASE("tracker: a knock the prediction cannot foresee", "[tracker]") {
