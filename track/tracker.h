@@ -87,7 +87,8 @@ struct TrackerOptions {
   // rendered castle's stairs): docs/benchmarks.md.
   bool refine_strongest = false;
   double refine_reach = 8;
-  // Re-acquisition after a loss: the places tried a frame, around the last verified pose.
+  // Places tried a frame around the last verified pose while the object is lost (rings 2 x
+  // search_pixels apart: 6, 12, 18, ... places).
   int reacquisition_places = 12;
   MatchSearchOptions search;
   EvidenceOptions evidence_options;
@@ -160,6 +161,11 @@ class Tracker {
   double Spread(const GaussianState& before, const GaussianState& after) const;
   // m: the largest standard deviation of a visible piece's end under `state`'s covariance.
   double PositionSigma(const GaussianState& state, const std::vector<EdgeModel>& visible) const;
+  // Tries places in rings about `centre`, from `first_ring`, at most `budget`; keeps in `out` the
+  // best verified estimate (the most of the outline supported), stopping after the first ring
+  // that verifies one when `stop_at_found`. True when one was found. Remembers the last ring.
+  bool SearchRings(const vision::GrayView& image, const Values& centre, int first_ring, int budget,
+                   bool stop_at_found, TrackedFrame* out);
   std::vector<EdgeCandidate> Candidates(const vision::GrayView& image,
                                         const std::vector<EdgeModel>& edges) const;
   // A set that passed, matched again from evidence searched around its own estimate: every
