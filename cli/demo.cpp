@@ -104,7 +104,7 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
       "lid angle error median {:.2f} deg, worst {:.2f} deg\n",
       verified, kFrames, median(t_mm), worst(t_mm), median(q_deg), worst(q_deg));
   out << fmt::format(
-      "time per frame: median {:.2f} ms, worst {:.2f} ms (segment detection "
+      "time per frame: median {:.2f} ms, worst {:.2f} ms (the search for edges "
       "included; {:.0f} frames a second)\n",
       median(ms), worst(ms), 1000 / std::max(1e-3, median(ms)));
   if (!target.empty()) {
@@ -117,7 +117,7 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
     }
     out << fmt::format(
         "overlays: {}/frame_00000.png ... frame_{:05d}.png (yellow: verified, "
-        "shaded: the predicted edges' 2-sigma regions, green: matched segments)\n",
+        "shaded: the predicted edges' 2-sigma regions, green: the matched image lines)\n",
         options.track_overlay, kFrames - 1);
   }
   return verified >= 0.9 * kFrames;
