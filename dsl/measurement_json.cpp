@@ -259,7 +259,7 @@ class Handler : public nlohmann::json_sax<nlohmann::json> {
     p.is_3d = r.has_xyz;
     Eigen::MatrixXd C(n, n);
     if (r.has_sigma) {
-      if (!(r.sigma[0] > 0)) return false;
+      if (SigmaProblem(r.sigma[0])) return false;
       C = r.sigma[0] * r.sigma[0] * Eigen::MatrixXd::Identity(n, n);
     } else {
       if (static_cast<int>(r.cov.size()) != n) return false;
@@ -325,7 +325,17 @@ bool PlainText(std::string_view text) {
 
 }  // namespace
 
+std::optional<std::string> SigmaProblem(double sigma) {
+  if (!(sigma > 0)) return fmt::format("must be positive, got {}", sigma);
+  const double variance = sigma * sigma;
+  if (!std::isnormal(variance)) {
+    return fmt::format("must have a finite, nonzero square, got {}", sigma);
+  }
+  return std::nullopt;
+}
+
 std::optional<std::string> CovarianceProblem(const Eigen::MatrixXd& C) {
+  if (!C.allFinite()) return "has an entry that is not a finite number";
   if ((C - C.transpose()).cwiseAbs().maxCoeff() > 1e-9 * C.cwiseAbs().maxCoeff()) {
     return "is not symmetric";
   }

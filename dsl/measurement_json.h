@@ -25,6 +25,11 @@ namespace cfuse::dsl {
 // nullopt; both readers' test.
 std::optional<std::string> CovarianceProblem(const Eigen::MatrixXd& C);
 
+// Why a standard deviation is refused ("must be positive"), or nullopt; both readers' test.
+// Its square is the variance, which must be a positive finite number: a sigma of 1e200
+// would make every off-diagonal entry inf * 0 = NaN.
+std::optional<std::string> SigmaProblem(double sigma);
+
 // `read_camera` reads the camera object's text (a fragment of the file); it may throw
 // InputError, which makes the fast path give up.
 std::optional<MeasurementSet> ReadPlainJsonMeasurements(

@@ -27,7 +27,8 @@ Eigen::MatrixXd Covariance(const Document& doc, const YAML::Node& entry, int n,
   }
   if (Present(sigma)) {
     const double s = Number(doc, sigma, what + " sigma");
-    if (!(s > 0)) doc.Fail(sigma, fmt::format("{} sigma must be positive, got {}", what, s));
+    if (const auto problem = SigmaProblem(s))
+      doc.Fail(sigma, fmt::format("{} sigma {}", what, *problem));
     return s * s * Eigen::MatrixXd::Identity(n, n);
   }
   if (!cov.IsSequence() || static_cast<int>(cov.size()) != n) {

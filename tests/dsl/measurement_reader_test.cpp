@@ -70,6 +70,10 @@ TEST_CASE("measurements: every malformed file is refused where and how it should
        "points[0] needs either 'sigma' or 'cov', not both"},
       {"points: [{xyz: [1, 2, 3], sigma: -0.1}]", 1, 34,
        "points[0] sigma must be positive, got -0.1"},
+      {"points: [{xyz: [1, 2, 3], sigma: 1e200}]", 1, 34,
+       "points[0] sigma must have a finite, nonzero square, got 1e+200"},
+      {"points: [{xyz: [1, 2, 3], sigma: 1e-200}]", 1, 34,
+       "points[0] sigma must have a finite, nonzero square, got 1e-200"},
       {"points: [{xyz: [1, 2, 3], cov: [[1,0,0],[0,1,0],[0,0,-1]]}]", 1, 32,
        "points[0] cov is not positive definite"},
       {"points: [{xyz: [1, 2, 3], cov: [[1,2,0],[0,1,0],[0,0,1]]}]", 1, 32,
@@ -182,6 +186,10 @@ TEST_CASE("measurements: malformed JSON gets the YAML reader's message", "[dsl]"
       {R"({"points": [{"xyz": [1, 2, 3]}]})", 1, 13, "points[0] needs either 'sigma' or 'cov'"},
       {R"({"points": [{"xyz": [1, 2, 3], "sigma": -0.1}]})", 1, 41,
        "points[0] sigma must be positive, got -0.1"},
+      // Found by the measurements fuzz target: a sigma whose square overflows made a
+      // covariance of inf on the diagonal and NaN off it.
+      {R"({"points": [{"xyz": [1, 2, 3], "sigma": 1.01e308}]})", 1, 41,
+       "points[0] sigma must have a finite, nonzero square, got 1.01e+308"},
       {R"({"points": [{"xyz": [1, 2, 3], "cov": [[1,2,0],[0,1,0],[0,0,1]]}]})", 1, 39,
        "points[0] cov is not symmetric"},
       {R"({"points": [{"xyz": [1, 2, 3], "sigma": 1, "label": ""}]})", 1, 53,
