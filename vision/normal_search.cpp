@@ -84,11 +84,17 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
       return static_cast<float>(inside) +
              (vi > vo ? (vi - half) / (vi - vo) : 0.5f) * static_cast<float>(outside - inside);
     };
-    const float width = crossing(b, b + 1) - crossing(a, a - 1);
+    const float rise = crossing(a, a - 1), fall = crossing(b, b + 1);
+    const float width = fall - rise;
     const float curvature = left - 2 * here + right;
+    // A step smeared by motion is a plateau of |D|, its peak anywhere on it: the edge at mid
+    // exposure is the plateau's middle. A sharp step's peak is placed by the parabola.
     const float centre =
-        static_cast<float>(i) +
-        (curvature < 0 ? std::clamp(0.5f * (left - right) / curvature, -0.5f, 0.5f) : 0.f);
+        width > options.smeared_width
+            ? 0.5f * (rise + fall)
+            : static_cast<float>(i) +
+                  (curvature < 0 ? std::clamp(0.5f * (left - right) / curvature, -0.5f, 0.5f)
+                                 : 0.f);
     hits->push_back({centre - static_cast<float>(K + 1), d(i), width});
   }
   // The strongest first, at most max_hits.

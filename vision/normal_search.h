@@ -34,6 +34,9 @@ struct NormalSearchOptions {
   double min_contrast = 10;  // grey levels: |D| a hit needs
   int half_width = 2;        // px averaged either side along the edge (5 px in all)
   int max_hits = 4;          // the strongest hits kept per search
+  // px: a hit wider than this at half its peak is a step smeared by motion (real edges are 2 to
+  // 4 px wide), placed at its run's middle rather than at its peak.
+  float smeared_width = 7;
 };
 
 struct ProfileHit {
