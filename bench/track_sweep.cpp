@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "bench/sweep_main.h"
+#include "bench/tracker_ablation.h"
 #include "dsl/model_loader.h"
 #include "importers/cao.h"
 #include "interp/joint_estimates.h"
@@ -96,9 +97,9 @@ void Score(const ConstraintGraph& graph, const Values& estimate, const Values& t
 }
 
 Result RunCfuse(const ConstraintGraph& graph, const std::vector<vision::SequenceFrame>& frames,
-                int step) {
+                int step, const track::TrackerOptions& options) {
   Result out;
-  track::Tracker tracker(graph, vision::StandardCamera(), frames[0].truth);
+  track::Tracker tracker(graph, vision::StandardCamera(), frames[0].truth, options);
   for (size_t i = 0; i < frames.size(); i += step) {
     const vision::Rendering& r = frames[i].rendering;
     const track::TrackedFrame f = tracker.Track({r.pixels.data(), r.width, r.height, r.width});
@@ -149,7 +150,17 @@ int Run(int argc, char** argv) {
   app.add_option("--repeat", repeat, "timing runs (the median is reported)")
       ->check(CLI::Range(1, 100));
   app.add_flag("--no-peer", no_peer, "leave ViSP out");
+  std::string without;
+  app.add_option("--without", without, std::string("safeguards off, comma-separated: ") +
+                                           bench::kSafeguards);
   CLI11_PARSE(app, argc, argv);
+  track::TrackerOptions options;
+  try {
+    bench::DisableSafeguards(without, &options);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "track_sweep: {}\n", e.what());
+    return 2;
+  }
   const std::vector<int> steps = ParseSteps(steps_text);
   const std::optional<vision::RenderStyle> style = vision::ParseRenderStyle(style_name);
   if (!style) {
@@ -176,7 +187,7 @@ int Run(int argc, char** argv) {
   // 1. Time by stage.
   const std::vector<vision::SequenceFrame> steady = render(hinged, "steady");
   std::vector<Result> runs;
-  for (int i = 0; i < repeat; ++i) runs.push_back(RunCfuse(hinged, steady, 1));
+  for (int i = 0; i < repeat; ++i) runs.push_back(RunCfuse(hinged, steady, 1, options));
   auto median_of = [&](auto field) {
     std::vector<double> v;
     for (const Result& r : runs) v.push_back(field(r));
@@ -208,7 +219,7 @@ int Run(int argc, char** argv) {
        {std::pair<const char*, const ConstraintGraph*>{"hinged", &hinged}, {"rigid", &box}}) {
     for (const std::string& scenario : vision::StandardSequenceNames()) {
       const std::vector<vision::SequenceFrame> sequence = render(*graph, scenario);
-      const Result r = RunCfuse(*graph, sequence, 1);
+      const Result r = RunCfuse(*graph, sequence, 1, options);
       fmt::print("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", name, scenario,
                  Num(vision::MedianImageMotion(*graph, sequence, camera), 1), r.Verified(), r.wrong,
                  Num(Median(r.t_mm)), Num(Max(r.t_mm)), Num(Median(r.r_deg)), Num(Max(r.r_deg)),
@@ -225,7 +236,7 @@ int Run(int argc, char** argv) {
       "| worst R (°) | median joint (°) | worst joint (°) | median ms |\n");
   fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (int k : steps) {
-    const Result r = RunCfuse(hinged, steady, k);
+    const Result r = RunCfuse(hinged, steady, k, options);
     fmt::print("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", k, r.frames,
                r.Tracked(), r.Verified(), r.wrong, Num(Median(r.t_mm)), Num(Max(r.t_mm)),
                Num(Median(r.r_deg)), Num(Max(r.r_deg)), Num(Median(r.q_deg)), Num(Max(r.q_deg)),
@@ -248,7 +259,7 @@ int Run(int argc, char** argv) {
       "median R (°) | worst R (°) | median ms |\n");
   fmt::print("|---|---|---|---|---|---|---|---|---|---|\n");
   for (int k : steps) {
-    const Result r = RunCfuse(box, rigid, k);
+    const Result r = RunCfuse(box, rigid, k, options);
     fmt::print("| {} | cfuse | {} | {} | {} | {} | {} | {} | {} | {} |\n", k, r.Tracked(),
                r.Verified(), r.wrong, Num(Median(r.t_mm)), Num(Max(r.t_mm)),
                Num(Median(r.r_deg), 3), Num(Max(r.r_deg), 3), Num(Median(r.ms)));

@@ -38,6 +38,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/tracker_ablation.h"
 #include "bench/visp_tracker.h"
 #include "importers/cao.h"
 #include "track/tracker.h"
@@ -254,9 +255,10 @@ struct Run {
 
 Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
                const std::vector<int>& picked, const Rigid3d& start,
+               const track::TrackerOptions& base,
                track::EdgeEvidence evidence = track::EdgeEvidence::kNormalSearch) {
   Run run;
-  track::TrackerOptions options;
+  track::TrackerOptions options = base;
   options.evidence = evidence;
   track::Tracker tracker(graph, s.camera, Posed(graph, start), options);
   for (int k : picked) {
@@ -319,7 +321,17 @@ int main(int argc, char** argv) {
                  "cfuse runs per cell, each from the start moved by up to 1 mm and 0.3 degrees "
                  "(the first unmoved): a track's spread over nearly equal starts");
   app.add_flag("--segments", segments, "cfuse with segments for edge evidence too");
+  std::string without;
+  app.add_option("--without", without, std::string("safeguards off, comma-separated: ") +
+                                           bench::kSafeguards);
   CLI11_PARSE(app, argc, argv);
+  track::TrackerOptions options;
+  try {
+    bench::DisableSafeguards(without, &options);
+  } catch (const std::invalid_argument& e) {
+    fmt::print(stderr, "visp_sequences: {}\n", e.what());
+    return 2;
+  }
 
   std::vector<std::string> sequences;
   std::stringstream list(names);
@@ -327,8 +339,8 @@ int main(int argc, char** argv) {
 
   fmt::print(
       "| sequence | k | tracker | frames verified | verified wrong | error median / worst (mm) | "
-      "from ViSP's edges, median (mm) | ms a frame | split (evidence, prediction, search, "
-      "estimation, verification) |\n|---|---|---|---|---|---|---|---|---|\n");
+      "from ViSP's edges, median (mm) | ms a frame | after the first | split (evidence, "
+      "prediction, search, estimation, verification) |\n|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& name : sequences) {
     const Sequence s = Load(name);
     const std::vector<cv::Mat> frames = Frames(s);
@@ -370,7 +382,7 @@ int main(int argc, char** argv) {
       for (const std::string who : {"cfuse", "cfuse (segments)", "ViSP"}) {
         if (who == "cfuse (segments)" && !segments) continue;
         const bool ours = who != "ViSP";
-        std::vector<double> means;
+        std::vector<double> means, later;  // ms a frame, and after the first frame
         Run run;
         std::vector<Run> runs;  // the jittered starts' (cfuse)
         std::mt19937 jitter_rng(seed);
@@ -382,16 +394,17 @@ int main(int argc, char** argv) {
                                                                    turn.normalized())) *
                                   s.start.rotation,
                               s.start.translation + 0.001 * move);
-          runs.push_back(TrackCfuse(graph, s, frames, picked, start,
+          runs.push_back(TrackCfuse(graph, s, frames, picked, start, options,
                                     who == "cfuse" ? track::EdgeEvidence::kNormalSearch
                                                    : track::EdgeEvidence::kSegments));
         }
         for (int r = 0; r < repeat; ++r) {
           run = !ours ? TrackVisp(s, frames, picked, s.start)
-                      : TrackCfuse(graph, s, frames, picked, s.start,
+                      : TrackCfuse(graph, s, frames, picked, s.start, options,
                                    who == "cfuse" ? track::EdgeEvidence::kNormalSearch
                                                   : track::EdgeEvidence::kSegments);
           means.push_back(Mean(run.ms));
+          later.push_back(Mean(std::vector<double>(run.ms.begin() + 1, run.ms.end())));
         }
         std::vector<double> errors, from_visp;
         int accepted = 0, wrong = 0;
@@ -415,10 +428,11 @@ int main(int argc, char** argv) {
                                run.mean.prediction, run.mean.search, run.mean.estimation,
                                run.mean.verification)
                  : "";
-        fmt::print("| {} | {} | {} | {}/{} | {} | {} / {} | {} | {:.2f} | {} |\n", name, k, who,
-                   accepted, total, wrong, Num(Median(errors)),
+        fmt::print("| {} | {} | {} | {}/{} | {} | {} / {} | {} | {:.2f} | {:.2f} | {} |\n", name,
+                   k, who, accepted, total, wrong, Num(Median(errors)),
                    Num(errors.empty() ? NAN : *std::max_element(errors.begin(), errors.end())),
-                   s.truth.empty() ? Num(Median(from_visp)) : "", Median(means), split);
+                   s.truth.empty() ? Num(Median(from_visp)) : "", Median(means), Median(later),
+                   split);
         if (!csv_dir.empty()) {
           std::string file = who;
           std::replace(file.begin(), file.end(), ' ', '_');
@@ -465,7 +479,7 @@ int main(int argc, char** argv) {
         const Rigid3d off(turn * ref.rotation, ref.translation + 0.001 * mm * direction());
         std::vector<int> picked;
         for (int i = start; i < start + kLength; ++i) picked.push_back(i);
-        const Run run = TrackCfuse(graph, s, frames, picked, off);
+              const Run run = TrackCfuse(graph, s, frames, picked, off, options);
         // ViSP from the same start on the same frames: where edges alone take a tracker that
         // has no verification.
         const Run peer = TrackVisp(s, frames, picked, off);
@@ -491,12 +505,12 @@ int main(int argc, char** argv) {
             ++wrong;
             const track::Verification& v = run.verification[i];
             fmt::print(stderr,
-                       "perturbed {} trial {} frame {}: verified {:.1f} mm / {:.1f} px off "
+                       "perturbed {} trial {} frame {} (its {}th): verified {:.1f} mm / {:.1f} px off "
                        "(start {:.0f} mm {:.0f} deg; sigma {:.1f} mm agreement {:.2f} share {:.2f} "
                        "chance {:.2f} dominant {:.2f} "
                        "least {:.2f} distance {:.2f} n {}) pose {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} "
                        "{:.7f} {:.7f}\n",
-                       name, trial, picked[i], err, px, mm, deg, 1000 * run.position_sigma[i],
+                       name, trial, picked[i], i + 1, err, px, mm, deg, 1000 * run.position_sigma[i],
                        v.agreement, v.share, v.chance, v.dominant_share, v.least_component,
                        v.mean_distance, v.samples, run.poses[i].translation.x(),
                        run.poses[i].translation.y(), run.poses[i].translation.z(),

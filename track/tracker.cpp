@@ -10,6 +10,7 @@
 
 #include "constraints/dof.h"
 #include "constraints/evaluate.h"
+#include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
 
 namespace cfuse::track {
@@ -19,14 +20,6 @@ using Clock = std::chrono::steady_clock;
 
 double Ms(Clock::time_point from, Clock::time_point to) {
   return std::chrono::duration<double, std::milli>(to - from).count();
-}
-
-void AddTimes(const FrameTimes& from, FrameTimes* to) {
-  to->segments += from.segments;
-  to->prediction += from.prediction;
-  to->search += from.search;
-  to->estimation += from.estimation;
-  to->verification += from.verification;
 }
 
 }  // namespace
@@ -125,9 +118,6 @@ FramePrior Tracker::Prior(const Values& predicted, double scale) const {
     motion = LocalCoordinates(graph_.blocks, first, last) *
              (ahead / static_cast<double>(last_frame - first_frame));
   }
-  const double focal = camera_.model == Camera::Model::kOrthographic
-                           ? camera_.scale
-                           : 0.5 * (camera_.fx + camera_.fy);
   const double reach = options_.search_pixels / 3;  // px, one standard deviation
   for (size_t b = 0; b < graph_.blocks.size(); ++b) {
     const Block& block = graph_.blocks[b];
@@ -136,9 +126,8 @@ FramePrior Tracker::Prior(const Values& predicted, double scale) const {
     const Eigen::Vector3d t = block.kind == BlockKind::kPose
                                   ? predicted.poses[block.index].translation
                                   : predicted.points[block.index];
-    // Pixels per metre at the block's depth: each translation moves the image `reach` px.
-    const double pixels =
-        camera_.model == Camera::Model::kOrthographic ? focal : focal / std::max(0.05, t.z());
+    // Each translation moves the image `reach` px at the block's depth.
+    const double pixels = PixelsPerMetre(t.z());
     const int t_offset = block.kind == BlockKind::kPose ? o + 3 : o;
     const double sigma_t = scale * std::max(reach / pixels, options_.motion_share *
                                                                 motion.segment<3>(t_offset).norm());
@@ -170,6 +159,8 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
   }
   const Values predicted = Predicted();
   TrackedFrame out;
+  best_outline_ = 0;
+  undetermined_.reset();
   // The search range grows with the frames since the last verified one (the prediction is that
   // much older), then doubles on failure.
   const int lost = last_verified_ < 0 ? 0 : std::max(0, frame_ - last_verified_ - 1);
@@ -190,7 +181,7 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
     attempt.doublings = d;
     TryFrom(image, prior, &attempt);
     FrameTimes spent = out.times;
-    AddTimes(attempt.times, &spent);
+    spent += attempt.times;
     const int branches = out.branches + attempt.branches;
     if (d == 0 || (attempt.verified &&
                    (!out.verified || attempt.verification.share > out.verification.share))) {
@@ -206,11 +197,22 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
   // ring that finds the object kept. (The same search at the first frame, keeping the estimate
   // that explains the most of the outline, was tried against starts far off: it found more
   // frames but verified more wrong ones, and moved castel's track by 12 mm.)
-  if (!out.verified && lost > 0) {
-    if (SearchRings(image, history_.back().second, reacquisition_ring_ + 1,
-                    options_.reacquisition_places, true, &out)) {
-      out.reacquired = true;
-    }
+  if (!out.verified && lost > 0 && Reacquire(image, history_.back().second, &out)) {
+    out.reacquired = true;
+  }
+  if (out.verified && (last_verified_ < 0 || lost > 0 || out.reacquired)) Settle(image, &out);
+  // A pose the outline supports better but its matches leave undetermined (an occluder hides
+  // what would fix it) against a worse-supported one that is determined: the second has taken
+  // lines that are not the object's (an occluder's own edges) to be determined. Neither is the
+  // frame's answer.
+  if (out.verified && out.verification.share < options_.min_share_of_best * best_outline_) {
+    out.verified = false;
+    out.verification.verified = false;
+    out.verification.refusal = Refusal::kOutdone;
+    out.verification.why = fmt::format(
+        "a pose the outline supports better ({:.0f} % against {:.0f} %) is left undetermined by "
+        "its matches",
+        100 * best_outline_, 100 * out.verification.share);
   }
   if (out.verified) {
     reacquisition_ring_ = 0;
@@ -233,6 +235,14 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
     history_.push_back({frame_, out.estimate.mean});
     if (history_.size() > 2) history_.erase(history_.begin());
     last_verified_ = frame_;
+  } else if (undetermined_) {
+    // A set passed every test of the outline, its precision alone did not: its estimate is
+    // nearer than the prediction (motion blur widens the edges while the object runs on).
+    out.estimate = std::move(*undetermined_);
+    out.imprecise = true;
+    if (history_.back().first == frame_) history_.pop_back();
+    history_.push_back({frame_, out.estimate.mean});
+    if (history_.size() > 2) history_.erase(history_.begin());
   } else {
     out.estimate = first_prior;
     if (out.verification.refusal == Refusal::kNone) {
@@ -285,8 +295,8 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
         const std::vector<EdgeModel> at =
             PredictEdges(graph_, edges_, set->state, camera_, options_.visibility, model_sigma_,
                          options_.min_edge_pixels);
-        Verification v =
-            VerifyOutline(image, at, options_.evidence_options.search, options_.verification);
+        Verification v = VerifyOutline(image, at, options_.evidence_options.search,
+                                       options_.verification, ModelLines(set->state.mean));
         // Far less supported than this sequence's verified frames have been: a pose sliding off
         // the object, one edge at a time, keeps passing the absolute tests.
         if (v.verified && typical_agreement_ > 0 &&
@@ -298,15 +308,21 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
               "{:.0f} % in the frames before",
               100 * v.agreement, 100 * typical_agreement_);
         }
+        if (v.verified) best_outline_ = std::max(best_outline_, v.share);
         // Determined by the data: every visible edge's ends known to `max_position_sigma`.
         if (v.verified) {
           const double sigma = PositionSigma(set->state, at);
           if (sigma > options_.max_position_sigma) {
             v.verified = false;
+            v.refusal = Refusal::kUndetermined;
             v.why = fmt::format(
                 "the matches leave the pose undetermined: a point of the model "
                 "is known to {:.1f} mm, {:.1f} mm at most",
                 1000 * sigma, 1000 * options_.max_position_sigma);
+            if (!undetermined_ || v.share > undetermined_share_) {
+              undetermined_ = set->state;
+              undetermined_share_ = v.share;
+            }
           }
         }
         // Every part pinned down by the matches, not by the prediction: a lid whose top edge
@@ -360,61 +376,13 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
   return true;
 }
 
-bool Tracker::SearchRings(const vision::GrayView& image, const Values& centre, int first_ring,
-                          int budget, bool stop_at_found, TrackedFrame* out) {
-  const Block& root = graph_.blocks[graph_.components[0].block];
-  const Eigen::Vector3d at = root.kind == BlockKind::kPose ? centre.poses[root.index].translation
-                                                           : centre.points[root.index];
-  const double focal = camera_.model == Camera::Model::kOrthographic
-                           ? camera_.scale
-                           : 0.5 * (camera_.fx + camera_.fy);
-  const double metres_per_pixel =
-      camera_.model == Camera::Model::kOrthographic ? 1 / focal : std::max(0.05, at.z()) / focal;
-  // Rings 2 ranges apart: each place's search (twice the usual range) reaches its neighbours.
-  const double spacing = 2 * options_.search_pixels * metres_per_pixel;
-  const double largest = std::max(camera_.width, camera_.height) * metres_per_pixel;
-  // The better of two frames: verified, then the more of the outline supported.
-  auto better = [](const TrackedFrame& a, const TrackedFrame& b) {
-    if (a.verified != b.verified) return a.verified;
-    return a.verification.supported > b.verification.supported;
-  };
-  bool found = false;
-  int ring = first_ring - 1, tried = 0;
-  while (tried < budget) {
-    ++ring;
-    const double radius = spacing * ring;
-    if (radius > largest) {
-      if (ring == 1) break;  // (an image smaller than a ring)
-      ring = 0;
-      continue;
-    }
-    const int places = 6 * ring;
-    for (int k = 0; k < places && tried < budget; ++k, ++tried) {
-      const double angle = 2 * M_PI * k / places;
-      Values moved = centre;
-      const Eigen::Vector3d shift(radius * std::cos(angle), radius * std::sin(angle), 0);
-      for (Rigid3d& pose : moved.poses) pose.translation += shift;
-      for (Eigen::Vector3d& point : moved.points) point += shift;
-      const auto start = Clock::now();
-      const FramePrior prior = Prior(moved, 2);
-      TrackedFrame attempt;
-      attempt.times.prediction += Ms(start, Clock::now());
-      TryFrom(image, prior, &attempt);
-      FrameTimes spent = out->times;
-      AddTimes(attempt.times, &spent);
-      const int branches = out->branches + attempt.branches;
-      if (attempt.verified && better(attempt, *out)) {
-        attempt.doublings = out->doublings;
-        *out = std::move(attempt);
-        found = true;
-      }
-      out->times = spent;
-      out->branches = branches;
-    }
-    if (found && stop_at_found) break;
-  }
-  reacquisition_ring_ = ring;
-  return found;
+TrackedFrame Tracker::TryPlace(const vision::GrayView& image, const Values& place) {
+  const auto start = Clock::now();
+  const FramePrior prior = Prior(place, 2);
+  TrackedFrame attempt;
+  attempt.times.prediction += Ms(start, Clock::now());
+  TryFrom(image, prior, &attempt);
+  return attempt;
 }
 
 std::vector<EdgeCandidate> Tracker::Candidates(const vision::GrayView& image,
@@ -422,6 +390,20 @@ std::vector<EdgeCandidate> Tracker::Candidates(const vision::GrayView& image,
   return options_.evidence == EdgeEvidence::kNormalSearch
              ? NormalSearchCandidates(image, edges, appearance_, options_.evidence_options)
              : SegmentCandidates(image, edges, options_.segments, options_.evidence_options);
+}
+
+std::vector<ModelLine> Tracker::ModelLines(const Values& values) const {
+  std::vector<ModelLine> out;
+  if (graph_.components.size() < 2) return out;
+  for (const vision::ProjectedEdge& p : vision::VisibleEdges(graph_, edges_, values, camera_)) {
+    out.push_back({graph_.components[edges_[p.edge].component].block, p.a, p.b});
+  }
+  return out;
+}
+
+double Tracker::PriorDistance(const GaussianState& prior, const Values& mean) const {
+  const Eigen::VectorXd d = LocalCoordinates(graph_.blocks, prior.mean, mean);
+  return d.dot(prior.covariance.ldlt().solve(d));
 }
 
 void Tracker::Refine(const vision::GrayView& image, const FramePrior& prior,
@@ -458,53 +440,68 @@ void Tracker::Refine(const vision::GrayView& image, const FramePrior& prior,
       }
     }
     MatchedSet next;
-    double sigma = model_sigma_;
     bool ok = false;
-    // Iteratively reweighted: each match's weight from its distance to its edge by Tukey's
-    // biweight at 4.685 robust standard deviations (ViSP's estimator), a match past it dropped;
-    // its noise grown by the inverse of its weight.
-    std::vector<double> weight(chosen.size(), 1.0);
-    for (int pass = 0; pass < 6; ++pass) {
-      std::vector<Factor> factors;
-      std::vector<int> used;
-      for (size_t i = 0; i < chosen.size(); ++i) {
-        if (weight[i] <= 0) continue;
-        const EdgeCandidate& k = candidates[chosen[i]];
-        // The candidate's noise carries the tracker's model sigma; this pass's replaces it.
-        const Eigen::Matrix2d noise = (k.noise + (sigma * sigma - model_sigma_ * model_sigma_) *
-                                                     Eigen::Matrix2d::Identity()) /
-                                      weight[i];
-        factors.push_back(EdgeFactor(camera_, edges[k.edge], k.a, k.b, noise));
-        used.push_back(static_cast<int>(i));
+    std::vector<double> weight;
+    // The prediction is a measurement too (Lowe's stabilisation). An estimate far outside it
+    // says the prediction was wrong (a start far off, a knock), and fused as it was it would pull
+    // the estimate toward itself along what the edges leave loose (the depth), with a
+    // covariance that claims what the edges do not show: the matches are solved again with the
+    // prior widened until the estimate lies within it.
+    GaussianState start = prior.free;
+    for (int widen = 0; widen < 3; ++widen) {
+      double sigma = model_sigma_;
+      weight.assign(chosen.size(), 1.0);
+      // Iteratively reweighted: each match's weight from its distance to its edge by Tukey's
+      // biweight at 4.685 robust standard deviations (ViSP's estimator), a match past it dropped;
+      // its noise grown by the inverse of its weight.
+      for (int pass = 0; pass < 6; ++pass) {
+        std::vector<Factor> factors;
+        std::vector<int> used;
+        for (size_t i = 0; i < chosen.size(); ++i) {
+          if (weight[i] <= 0) continue;
+          const EdgeCandidate& k = candidates[chosen[i]];
+          // The candidate's noise carries the tracker's model sigma; this pass's replaces it.
+          const Eigen::Matrix2d noise = (k.noise + (sigma * sigma - model_sigma_ * model_sigma_) *
+                                                       Eigen::Matrix2d::Identity()) /
+                                        weight[i];
+          factors.push_back(EdgeFactor(camera_, edges[k.edge], k.a, k.b, noise));
+          used.push_back(static_cast<int>(i));
+        }
+        if (static_cast<int>(factors.size()) < needed) {
+          ok = false;
+          break;
+        }
+        ok = SolveMatches(constraints_, start, factors, graph_.blocks, dof_,
+                          options_.search.accept_confidence, &next);
+        // Each match's distance from its edge (px, RMS of its two ends), and their robust scale.
+        std::vector<double> distance(factors.size());
+        Eigen::VectorXd r;
+        for (size_t i = 0; i < factors.size(); ++i) {
+          EvaluateResidual(*factors[i].residual, graph_.blocks, factors[i].blocks, next.state.mean,
+                           &r, nullptr);
+          distance[i] = std::sqrt(r.squaredNorm() / 2);
+        }
+        std::vector<double> sorted = distance;
+        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
+        const double scale = std::clamp(1.4826 * sorted[sorted.size() / 2], options_.pixel_sigma,
+                                        options_.max_model_sigma);
+        double change = 0;
+        for (size_t j = 0; j < used.size(); ++j) {
+          const double x = distance[j] / (4.685 * scale);
+          const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+          change = std::max(change, std::abs(w - weight[used[j]]));
+          weight[used[j]] = w;
+        }
+        next.model_sigma = scale;
+        sigma = std::max(sigma, scale);
+        if (ok && change < 0.05) break;
       }
-      if (static_cast<int>(factors.size()) < needed) {
-        ok = false;
-        break;
-      }
-      ok = SolveMatches(constraints_, prior.free, factors, graph_.blocks, dof_,
-                        options_.search.accept_confidence, &next);
-      // Each match's distance from its edge (px, RMS of its two ends), and their robust scale.
-      std::vector<double> distance(factors.size());
-      Eigen::VectorXd r;
-      for (size_t i = 0; i < factors.size(); ++i) {
-        EvaluateResidual(*factors[i].residual, graph_.blocks, factors[i].blocks, next.state.mean,
-                         &r, nullptr);
-        distance[i] = std::sqrt(r.squaredNorm() / 2);
-      }
-      std::vector<double> sorted = distance;
-      std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-      const double scale = std::clamp(1.4826 * sorted[sorted.size() / 2], options_.pixel_sigma,
-                                      options_.max_model_sigma);
-      double change = 0;
-      for (size_t j = 0; j < used.size(); ++j) {
-        const double x = distance[j] / (4.685 * scale);
-        const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
-        change = std::max(change, std::abs(w - weight[used[j]]));
-        weight[used[j]] = w;
-      }
-      next.model_sigma = scale;
-      sigma = std::max(sigma, scale);
-      if (ok && change < 0.05) break;
+      if (!ok || !(options_.prior_confidence < 1)) break;
+      const double distance = PriorDistance(start, next.state.mean);
+      const double limit = ChiSquareQuantile(options_.prior_confidence, std::max(1, dof_));
+      if (distance <= limit) break;
+      start.covariance *= distance / limit;
+      start.prior_variance *= distance / limit;
     }
     {
       std::vector<int> kept;

@@ -25,11 +25,19 @@
 //     view. The best verified set is the frame's estimate.
 //  6. Recovery. With no set verified, the search range doubles and the frame is tried again,
 //     at most `max_doublings` times. A frame still not verified is lost: its estimate is the
-//     prediction, and the next frame predicts from the last verified ones. After a loss,
-//     every following frame is also searched from places around the last verified pose, in
-//     rings that grow with the frames lost (re-acquisition), until the object is verified
+//     prediction, and the next frame predicts from the last verified ones (or from a set that
+//     passed every test of the outline but left the pose undetermined: motion blur). After a
+//     loss, every following frame is also searched from places around the last verified pose,
+//     in rings that grow with the frames lost (re-acquisition), until the object is verified
 //     again. A frame found only by doubling or re-acquisition broke with the motion so far:
 //     its step is not taken for a velocity.
+//  7. Settling. The first frame verified, and the first after a loss, is tracked again from
+//     other places and joint values (TrackerOptions::settle_places): a decisively better pose
+//     replaces it, an equally good one with a joint elsewhere refuses it as ambiguous.
+//
+// The estimate's prior is the prediction; an estimate far outside it (a start far off, a knock)
+// is solved again with the prior widened, so that a wrong prediction does not pull it along
+// what the edges leave loose (the depth) nor make its covariance claim what they do not show.
 #pragma once
 
 #include <optional>
@@ -66,6 +74,9 @@ struct TrackerOptions {
   // `max_model_sigma`.
   double pixel_sigma = 0.5;
   double max_model_sigma = 3;
+  // An estimate beyond this confidence region of its prior (chi-square, the model's DOF) is
+  // solved again with the prior widened to reach it (1: never).
+  double prior_confidence = 0.999;
   double min_edge_pixels = 12;  // predicted pieces shorter than this are not matched
   // A frame is verified only with at least this share of the agreement of its outline with the
   // image that the sequence's verified frames had (their best, decaying by `typical_decay` a
@@ -80,6 +91,9 @@ struct TrackerOptions {
   // ... and every component pinned down by the matches rather than the prediction: its
   // standard deviation after them at most this share of the prediction's, in every direction.
   double max_spread = 0.9;
+  // ... and at least this share of the best support of a set the outline verified in the frame,
+  // determined by its matches or not.
+  double min_share_of_best = 0.95;
   // How a set that passed is refined (Tracker::Refine): by each edge's most probable line about
   // the set's estimate (the default), or by each sample's strongest step within `refine_reach`
   // px as ViSP's moving edges take them (StrongestStepCandidates). The second converges from
@@ -90,6 +104,19 @@ struct TrackerOptions {
   // Places tried a frame around the last verified pose while the object is lost (rings 2 x
   // search_pixels apart: 6, 12, 18, ... places).
   int reacquisition_places = 12;
+  // A frame verified with no verified frame just before it (the first, or one after a loss)
+  // came from a prior that may be far off, or stale: a pose slid by one of the object's repeated
+  // parts, or nearer and turned, and a lid found shut on the box's rim while it stands open, can
+  // pass every test of the outline (Castle-simu's tower on its window's edges). So the frame is
+  // tracked again from places about its estimate: `settle_places` on a ring, `settle_depths`
+  // along the line of sight, and each joint at `settle_joint_values` values across its limits.
+  // A pose verified there that explains `decisive_share` times as much of the image
+  // (Tracker::Evidence) replaces the frame's; one that explains about as much with a joint far
+  // from the frame's makes the frame ambiguous, and it is refused.
+  int settle_places = 4;
+  int settle_depths = 2;
+  int settle_joint_values = 4;
+  double decisive_share = 1.15;
   MatchSearchOptions search;
   EvidenceOptions evidence_options;
   VerificationOptions verification;
@@ -106,6 +133,14 @@ struct FrameTimes {
   double segments = 0;  // edge evidence: normal search or segment detection
   double prediction = 0, search = 0, estimation = 0, verification = 0;
   double Total() const { return segments + prediction + search + estimation + verification; }
+  FrameTimes& operator+=(const FrameTimes& more) {
+    segments += more.segments;
+    prediction += more.prediction;
+    search += more.search;
+    estimation += more.estimation;
+    verification += more.verification;
+    return *this;
+  }
 };
 
 // A predicted edge, for overlays: its ends and the standard deviation of where the image shows
@@ -132,6 +167,10 @@ struct TrackedFrame {
   // The verification of the accepted set (or of the last set judged, when lost).
   Verification verification;
   GaussianState estimate;                // the frame's estimate (the prediction when lost)
+  // Lost for its precision alone: the best set passed every test of the outline, but its
+  // matches leave the pose undetermined (motion blur, an occluder). `estimate` is that set's,
+  // not the prediction, and the next frame is predicted from it.
+  bool imprecise = false;
   std::vector<PredictedEdge> predicted;  // at the search range that decided the frame
   FrameTimes times;
 };
@@ -161,11 +200,44 @@ class Tracker {
   double Spread(const GaussianState& before, const GaussianState& after) const;
   // m: the largest standard deviation of a visible piece's end under `state`'s covariance.
   double PositionSigma(const GaussianState& state, const std::vector<EdgeModel>& visible) const;
-  // Tries places in rings about `centre`, from `first_ring`, at most `budget`; keeps in `out` the
-  // best verified estimate (the most of the outline supported), stopping after the first ring
-  // that verifies one when `stop_at_found`. True when one was found. Remembers the last ring.
-  bool SearchRings(const vision::GrayView& image, const Values& centre, int first_ring, int budget,
-                   bool stop_at_found, TrackedFrame* out);
+  // Re-acquisition: the frame tracked from places in rings about `centre` (a ring further out
+  // each frame: `reacquisition_ring_`); keeps in `out` the best verified estimate (the most of
+  // the outline supported) of the first ring that finds one. True when one was found.
+  bool Reacquire(const vision::GrayView& image, const Values& centre, TrackedFrame* out);
+  // The root component's origin (camera frame), and px per metre across the line of sight at
+  // `depth`.
+  Eigen::Vector3d RootOrigin(const Values& values) const;
+  double PixelsPerMetre(double depth) const;
+  // `centre` moved across the line of sight, at the root component's depth, by `ring` x 2 x
+  // search_pixels in the image in the direction `angle` (rad; 0 along the image's x).
+  Values RingPlace(const Values& centre, int ring, double angle) const;
+  // The frame tracked from `place` with twice the usual reach.
+  TrackedFrame TryPlace(const vision::GrayView& image, const Values& place);
+  // Place k about `centre` along the line of sight through the root's origin: nearer, further,
+  // twice as near, ... (steps that move the outline's points as far as a ring's).
+  Values DepthPlace(const Values& centre, int k) const;
+  // `centre` with each joint (one at a time) at settle_joint_values values across its limits
+  // (without limits, a revolute one turned round in as many steps), its child's subtree moved
+  // with it.
+  std::vector<Values> JointPlaces(const Values& centre) const;
+  // Whether the settling varies `joint` (a variable, not a mimic, between two rigid parts).
+  bool Settleable(const Joint& joint) const;
+  // `joint`'s value in `values` (rad or m), and px in the image per unit of it (its child's
+  // points at their RMS radius, or its shift, at the child's depth).
+  double JointValue(const Joint& joint, const Values& values) const;
+  double JointPixels(const Joint& joint, const Values& values) const;
+  // What a verified pose explains of the image: its outline's samples supported beyond what
+  // chance gives beside its edges. A lid found shut on the box's rim has as large a share of its
+  // outline supported as the lid standing open behind it, but explains less of the image.
+  static double Evidence(const Verification& v);
+  // A frame verified with nothing verified before it, replaced by a decisively better pose
+  // verified from places about its estimate (TrackerOptions::settle_places).
+  void Settle(const vision::GrayView& image, TrackedFrame* out);
+  // Every edge of a model of several parts where `values` projects it, hidden or not
+  // (VerifyOutline's `model`); none for a single part.
+  std::vector<ModelLine> ModelLines(const Values& values) const;
+  // The squared Mahalanobis distance of `mean` from `prior` (over the whole tangent space).
+  double PriorDistance(const GaussianState& prior, const Values& mean) const;
   std::vector<EdgeCandidate> Candidates(const vision::GrayView& image,
                                         const std::vector<EdgeModel>& edges) const;
   // A set that passed, matched again from evidence searched around its own estimate: every
@@ -185,6 +257,11 @@ class Tracker {
   std::vector<std::pair<int, Values>> history_;
   int last_verified_ = -1;  // frame index; -1 before the first
   int frame_ = 0;           // the index of the next frame
+  // The best share of a set the outline verified in this frame, determined by its matches or not,
+  // and the best-supported set refused for its precision alone, with its share.
+  double best_outline_ = 0;
+  std::optional<GaussianState> undetermined_;
+  double undetermined_share_ = 0;
   int reacquisition_ring_ = 0;
   double model_sigma_ = 0;  // px, what the verified frames' matches showed (pixel_sigma first)
   // The best agreement of the outline with the image (Verification::agreement) the verified

