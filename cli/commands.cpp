@@ -54,6 +54,47 @@ std::string FarthestConstraint(const ConstraintGraph& graph, const Values& value
                      graph.Describe(*worst), worst->where.ToString(), largest);
 }
 
+// "cfuse: the measurements do not fit ...": why a solution whose fit is refused is refused.
+std::string FitRefusal(const Solution& solution) {
+  const Fit& fit = solution.analysis.fit;
+  return fmt::format(
+      "cfuse: the measurements do not fit the estimate: chi-square {:.4g} over {} degrees of "
+      "freedom (p {}, below 1e-3): a wrong match, a wrong model or noise larger than stated",
+      fit.chi2, fit.dof,
+      fit.p_value < 1e-15 ? std::string("< 1e-15") : fmt::format("= {:.2g}", fit.p_value));
+}
+
+// A warning naming what the data leave free: its pose in the result is the start's, not the
+// data's.
+void ReportUndetermined(const Solution& solution, std::ostream& err) {
+  if (solution.undetermined.empty()) return;
+  std::string names;
+  for (const std::string& n : solution.undetermined) names += (names.empty() ? "" : ", ") + n;
+  err << fmt::format(
+      "cfuse: warning: the measurements and constraints leave {} direction{} undetermined, "
+      "moving {}: their values are the start's, not the data's\n",
+      solution.analysis.model_dof - solution.analysis.determined,
+      solution.analysis.model_dof - solution.analysis.determined == 1 ? "" : "s", names);
+}
+
+// The exit status of a solution whose result is written: 1 when its constraints do not hold
+// or its measurements do not fit (why on stderr), else 0, with a warning naming what the data
+// leave free.
+int Verdict(const ConstraintGraph& graph, const Solution& solution, std::ostream& err) {
+  if (!solution.summary.converged) {
+    err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes{}\n",
+                       solution.summary.max_constraint_residual, solution.summary.passes,
+                       FarthestConstraint(graph, solution.state.mean));
+    return 1;
+  }
+  ReportUndetermined(solution, err);
+  if (!solution.fits) {
+    err << FitRefusal(solution) << "\n";
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err) {
@@ -155,13 +196,7 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
                          names);
       return 1;
     }
-    if (!solution.summary.converged) {
-      err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes{}\n",
-                         solution.summary.max_constraint_residual, solution.summary.passes,
-                         FarthestConstraint(graph, solution.state.mean));
-      return 1;
-    }
-    return 0;
+    return Verdict(graph, solution, err);
   });
 }
 
@@ -211,7 +246,7 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
           "found so far is written\n",
           options.max_nodes);
     }
-    return 0;
+    return Verdict(graph, *in.solution, err);
   });
 }
 

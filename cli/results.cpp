@@ -90,7 +90,15 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
     out["matches"].push_back(l.empty() ? nlohmann::json() : nlohmann::json(l));
   out["constraints"] = {{"count", graph.constraints.size()},
                         {"max_abs_residual", solution.summary.max_constraint_residual}};
-  out["status"] = {{"converged", solution.summary.converged},
+  const Fit& fit = solution.analysis.fit;
+  out["fit"] = {{"chi2", fit.chi2},
+                {"dof", fit.dof},
+                {"p_value", fit.p_value},
+                {"residuals", fit.residuals}};
+  out["undetermined"] = solution.undetermined;
+  out["status"] = {{"converged", solution.summary.converged && solution.fits},
+                   {"constraints_hold", solution.summary.converged},
+                   {"fits", solution.fits},
                    {"passes", solution.summary.passes},
                    {"contradictions", solution.contradictions},
                    {"invalid", solution.invalid}};

@@ -1,5 +1,7 @@
 #include "interp/joint_estimates.h"
 
+#include <algorithm>
+
 #include "constraints/kinds/joint_residual.h"
 #include "kernel/evaluate.h"
 
@@ -65,6 +67,25 @@ Eigen::VectorXd JointValues(const ConstraintGraph& graph, const Values& values,
   Eigen::VectorXd out(static_cast<int>(joints.size()));
   for (size_t i = 0; i < joints.size(); ++i) {
     out[static_cast<int>(i)] = JointValue(graph, graph.joints[joints[i]], values, nullptr);
+  }
+  return out;
+}
+
+Eigen::MatrixXd JointJacobian(const ConstraintGraph& graph, const Values& values,
+                              bool independent_only) {
+  const std::vector<int> joints = JointsWithVariables(graph, independent_only);
+  int n = 0;
+  for (const Block& b : graph.blocks) n = std::max(n, b.tangent_offset + TangentDim(b.kind));
+  Eigen::MatrixXd out = Eigen::MatrixXd::Zero(static_cast<int>(joints.size()), n);
+  Eigen::MatrixXd jacobian;
+  for (size_t i = 0; i < joints.size(); ++i) {
+    const Joint& j = graph.joints[joints[i]];
+    JointValue(graph, j, values, &jacobian);
+    const int row = static_cast<int>(i);
+    out.row(row).segment<6>(graph.blocks[graph.components[j.parent].block].tangent_offset) +=
+        jacobian.leftCols<6>();
+    out.row(row).segment<6>(graph.blocks[graph.components[j.child].block].tangent_offset) +=
+        jacobian.rightCols<6>();
   }
   return out;
 }

@@ -28,4 +28,8 @@ JointEstimates EstimateJoints(const ConstraintGraph& graph, const GaussianState&
 Eigen::VectorXd JointValues(const ConstraintGraph& graph, const Values& values,
                             bool independent_only = false);
 
+// d q / d x: one row per joint of JointValues, over the whole state's tangent coordinates.
+Eigen::MatrixXd JointJacobian(const ConstraintGraph& graph, const Values& values,
+                              bool independent_only = false);
+
 }  // namespace cfuse

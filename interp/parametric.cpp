@@ -11,6 +11,7 @@
 #include "constraints/kinds/fix_pose.h"
 #include "constraints/kinds/joint_residual.h"
 #include "kernel/check.h"
+#include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
 #include "kernel/jet.h"
 
@@ -749,6 +750,14 @@ ParametricSolution SolveParametric(const ConstraintGraph& graph, const Measureme
   state.prior_variance = state.covariance.diagonal();
   solution.summary.passes = out.iterations;
   solution.summary.converged = out.converged;
+  // The same fit as solve's, from the same whitened residuals (n parameters, none free).
+  Fit& fit = solution.analysis.fit;
+  fit.chi2 = r.squaredNorm();
+  fit.residuals = m;
+  fit.dof = std::max(0, m - n);
+  fit.p_value = fit.dof > 0 ? 1 - ChiSquareCdf(fit.chi2, fit.dof) : 1.0;
+  solution.analysis.state_dim = solution.analysis.model_dof = solution.analysis.determined = n;
+  solution.fits = fit.p_value >= SolveOptions{}.min_p_value;
   for (const Constraint& c : graph.constraints) {
     Eigen::VectorXd residual;
     EvaluateResidual(*c.residual, graph.blocks, c.blocks, state.mean, &residual, nullptr);

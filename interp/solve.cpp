@@ -1,13 +1,17 @@
 #include "interp/solve.h"
 
+#include "interp/joint_estimates.h"
+
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
 
 #include "interp/closed_form_pose.h"
+#include "interp/joint_estimates.h"
 #include "interp/schedule.h"
 #include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
@@ -138,6 +142,32 @@ double NormalisedSquare(const ConstraintGraph& graph, const MeasurementSet& set,
   if (!residual.allFinite()) return INFINITY;
   if (m.is_3d) return residual.dot(m.cov3.llt().solve(Eigen::Vector3d(residual)));
   return residual.dot(m.cov2.llt().solve(Eigen::Vector2d(residual)));
+}
+
+// A measurement's distance from the estimate in the spread its residual should have there:
+// rᵀ S⁻¹ r with S = R − A P Aᵀ for a measurement the estimate includes (what is left of its
+// noise once the estimate has leant on it: the same as its distance from the estimate without
+// it), and S = R + A P Aᵀ for one it does not. Chi-square with the measurement's dimension for
+// a good measurement either way. A measurement the estimate follows exactly (a single point
+// measured once, with nothing else to check it) cannot be judged: 0.
+double GateSquare(const ConstraintGraph& graph, const MeasurementSet& set,
+                  const ResolvedLabel& r, const GaussianState& state, bool included) {
+  const MeasuredPoint& m = set.points[r.measurement];
+  const int block = graph.components[r.component].block;
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd a;
+  EvaluateResidual(*MeasurementResidual(graph, set, r), graph.blocks, {&block, 1}, state.mean,
+                   &residual, &a);
+  if (!residual.allFinite() || !a.allFinite()) return INFINITY;
+  const Block& b = graph.blocks[block];
+  const int dim = TangentDim(b.kind);
+  const Eigen::MatrixXd noise = m.is_3d ? Eigen::MatrixXd(m.cov3) : Eigen::MatrixXd(m.cov2);
+  const Eigen::MatrixXd spread =
+      a * state.covariance.block(b.tangent_offset, b.tangent_offset, dim, dim) * a.transpose();
+  const Eigen::MatrixXd s = included ? Eigen::MatrixXd(noise - spread) : Eigen::MatrixXd(noise + spread);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(s);
+  if (!(eigen.eigenvalues().minCoeff() > 1e-6 * noise.trace())) return 0;
+  return residual.dot(s.llt().solve(residual));
 }
 
 }  // namespace
@@ -466,18 +496,35 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   SequenceOptions sequence = options.sequence;
   sequence.constraint_tolerance = 1e-8 * solution->extent;
   solution->summary = FuseSequence(factors, &solution->state, sequence);
-  if (!solution->summary.converged && !options.guess) {
+  // A converged estimate that the measurements do not fit is a local minimum as surely as an
+  // unconverged one is a failure: both get the other starts, and the better fit is kept.
+  const auto chi2 = [&](const GaussianState& state) {
+    return AnalyseFit(factors, graph.blocks, state.mean, solution->extent, false).fit;
+  };
+  Fit fit = chi2(solution->state);
+  const auto acceptable = [&] {
+    return solution->summary.converged && fit.p_value >= options.min_p_value;
+  };
+  const auto better = [&](const SequenceSummary& summary, const Fit& other) {
+    if (summary.converged != solution->summary.converged) return summary.converged;
+    if (!summary.converged) {
+      return summary.max_constraint_residual < solution->summary.max_constraint_residual;
+    }
+    return other.chi2 < fit.chi2;
+  };
+  if (!acceptable() && !options.guess) {
     // Placing unmeasured points can still pick the wrong one of two places their constraints
     // allow (a mirror image about their neighbours); the unplaced start is the second try.
     GaussianState state = MakePrior(graph.blocks, unplaced, scale);
     SequenceSummary summary = FuseSequence(factors, &state, sequence);
-    if (summary.converged ||
-        summary.max_constraint_residual < solution->summary.max_constraint_residual) {
+    const Fit other = chi2(state);
+    if (better(summary, other)) {
       solution->state = std::move(state);
       solution->summary = std::move(summary);
+      fit = other;
     }
   }
-  if (!solution->summary.converged && !sequence.gauss_newton_from_start) {
+  if (!acceptable() && !sequence.gauss_newton_from_start) {
     // Noisy data on short lever arms (the lamp's hinge points 30 mm apart under 10 mm noise)
     // can throw the first pass's local iterations far off, each constraint linearised where
     // the ones before it left the estimate. A Gauss-Newton pass from the start, every factor
@@ -486,12 +533,14 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     from_start.gauss_newton_from_start = true;
     GaussianState state = MakePrior(graph.blocks, initial, scale);
     SequenceSummary summary = FuseSequence(factors, &state, from_start);
-    if (summary.converged ||
-        summary.max_constraint_residual < solution->summary.max_constraint_residual) {
+    const Fit other = chi2(state);
+    if (better(summary, other)) {
       solution->state = std::move(state);
       solution->summary = std::move(summary);
+      fit = other;
     }
   }
+  solution->analysis = AnalyseFit(factors, graph.blocks, solution->state.mean, solution->extent);
   for (size_t i = 0; i < factors.size(); ++i) {
     if (solution->summary.fusions[i].status == FusionSummary::Status::kContradiction) {
       solution->contradictions.push_back(factors[i].name);
@@ -500,6 +549,27 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
       solution->invalid.push_back(factors[i].name + ": not finite at the estimate");
     }
   }
+}
+
+// The components and joints that the free directions of the solution's analysis move.
+std::vector<std::string> UndeterminedNames(const ConstraintGraph& graph, const Solution& solution) {
+  std::vector<std::string> out;
+  const Eigen::MatrixXd& free = solution.analysis.free_directions;
+  if (free.cols() == 0) return out;
+  for (const Component& c : graph.components) {
+    const Block& b = graph.blocks[c.block];
+    if (free.middleRows(b.tangent_offset, TangentDim(b.kind)).norm() > 1e-6) {
+      out.push_back(c.name);
+    }
+  }
+  const Eigen::MatrixXd joints = JointJacobian(graph, solution.state.mean);
+  int row = 0;
+  for (const Joint& j : graph.joints) {
+    if (!HasJointVariable(j.type)) continue;
+    if (MovesAlong(joints.row(row), free)) out.push_back("joint " + j.name);
+    ++row;
+  }
+  return out;
 }
 
 }  // namespace
@@ -520,7 +590,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     int worst = -1;
     double worst_excess = 1, worst_square = 0;
     for (size_t i = 0; i < used.size(); ++i) {
-      const double square = NormalisedSquare(graph, set, used[i], solution.state.mean);
+      const double square = GateSquare(graph, set, used[i], solution.state, true);
       const double excess = square / (set.points[used[i].measurement].is_3d ? gate_3d : gate_2d);
       if (std::isfinite(square) && excess > worst_excess) {
         worst = static_cast<int>(i);
@@ -532,6 +602,36 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     solution.rejected.push_back({used[worst].measurement, std::sqrt(worst_square)});
     used.erase(used.begin() + worst);
   }
+  // Outliers judged at the final estimate: one left out early, while another dragged the
+  // estimate, may lie inside its gate once that one is gone; it comes back and the rest is
+  // solved again (each measurement at most once, so this ends).
+  std::vector<bool> once(set.points.size(), false);
+  for (bool readmitted = true; readmitted && !solution.rejected.empty();) {
+    readmitted = false;
+    for (auto r = solution.rejected.begin(); r != solution.rejected.end();) {
+      const auto label = std::find_if(solution.labels.begin(), solution.labels.end(),
+                                      [&](const ResolvedLabel& l) { return l.measurement == r->measurement; });
+      const double square = GateSquare(graph, set, *label, solution.state, false);
+      const double gate = set.points[r->measurement].is_3d ? gate_3d : gate_2d;
+      if (std::isfinite(square) && square <= gate && !once[r->measurement]) {
+        used.push_back(*label);
+        once[r->measurement] = true;
+        r = solution.rejected.erase(r);
+        readmitted = true;
+      } else {
+        r->sigmas = std::sqrt(square);  // at the final estimate
+        ++r;
+      }
+    }
+    if (readmitted) {
+      std::sort(used.begin(), used.end(), [](const ResolvedLabel& a, const ResolvedLabel& b) {
+        return a.measurement < b.measurement;
+      });
+      SolveLabelled(graph, set, options, used, &solution);
+    }
+  }
+  solution.fits = solution.analysis.fit.p_value >= options.min_p_value;
+  solution.undetermined = UndeterminedNames(graph, solution);
   return solution;
 }
 

@@ -30,6 +30,7 @@
 #include "constraints/evaluate.h"
 #include "constraints/graph.h"
 #include "kernel/estimator.h"
+#include "kernel/fit_analysis.h"
 #include "kernel/measurement_set.h"
 #include "kernel/pose_set.h"
 
@@ -59,6 +60,9 @@ struct SolveOptions {
   // and the rest solved again, a fifth of them at most (Solution::rejected). Off by default:
   // the interpretation tree gates its matches itself.
   bool reject_outliers = false;
+  // The fit (kernel/fit_analysis.h) below which a solution is refused: the chance that
+  // measurements with the stated noise fit the model this badly.
+  double min_p_value = 1e-3;
 };
 
 // A labelled measurement resolved to its model point.
@@ -82,6 +86,16 @@ struct Solution {
   };
   std::vector<Rejection> rejected;  // gross outliers left out (SolveOptions::reject_outliers)
   double extent = 0;                // the model's size, for relative tolerances
+  // The measurements' chi-square at the estimate and the directions they leave free
+  // (kernel/fit_analysis.h); `undetermined` names the components and joints those move.
+  FitAnalysis analysis;
+  std::vector<std::string> undetermined;
+  bool fits = true;  // analysis.fit.p_value >= SolveOptions::min_p_value
+
+  // Every constraint holds, nothing was contradictory or not finite, and the data fit.
+  bool accepted() const {
+    return summary.converged && fits && contradictions.empty() && invalid.empty();
+  }
 };
 
 // The estimator's covariance is dense: 8 n² bytes for a state of n tangent dimensions (a rigid
