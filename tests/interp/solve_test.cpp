@@ -9,6 +9,7 @@
 #include "constraints/dof.h"
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "interp/joint_estimates.h"
 #include "interp/simulate.h"
 #include "kernel/chi_square.h"
 #include "kernel/evaluate.h"
@@ -470,6 +471,32 @@ TEST_CASE("solve: a measurement the model cannot fit makes the solution not acce
   CHECK_FALSE(s.fits);
   CHECK_FALSE(s.accepted());
   CHECK(s.analysis.fit.p_value < 1e-3);
+}
+
+TEST_CASE("solve: the joints' Jacobian matches finite differences", "[interp]") {
+  for (const char* file : {"examples/hinged-box.yaml", "examples/planar-arm.yaml"}) {
+    CAPTURE(file);
+    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    Values x = g.nominal;
+    std::mt19937 rng(5);
+    std::normal_distribution<double> n(0, 0.3);
+    Eigen::VectorXd move(g.blocks.back().tangent_offset + TangentDim(g.blocks.back().kind));
+    for (int i = 0; i < move.size(); ++i) move[i] = n(rng);
+    Retract(g.blocks, move, &x);  // away from the nominal geometry's special values
+    const Eigen::MatrixXd analytic = JointJacobian(g, x);
+    REQUIRE(analytic.rows() == JointValues(g, x).size());
+    REQUIRE(analytic.cols() == move.size());
+    const double h = 1e-6;
+    for (int i = 0; i < move.size(); ++i) {
+      Eigen::VectorXd step = Eigen::VectorXd::Zero(move.size());
+      step[i] = h;
+      Values plus = x, minus = x;
+      Retract(g.blocks, step, &plus);
+      Retract(g.blocks, -step, &minus);
+      const Eigen::VectorXd numeric = (JointValues(g, plus) - JointValues(g, minus)) / (2 * h);
+      CHECK((numeric - analytic.col(i)).norm() <= 1e-6 * (1 + numeric.norm()));
+    }
+  }
 }
 
 TEST_CASE("solve: what the measurements leave free is named", "[interp]") {
