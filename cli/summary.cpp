@@ -109,6 +109,14 @@ void PrintSummary(const ConstraintGraph& graph, const ModelSummary& s, std::ostr
     out << fmt::format("DOF: {} ({} rigid-body + {} internal)\n", s.dof.dof, s.dof.rigid_body,
                        s.dof.internal);
   }
+  for (const Constraint& c : graph.constraints) {
+    if (c.redundant_rows == 0) continue;
+    const int written = c.residual->dimension() + c.redundant_rows;
+    out << fmt::format(
+        "note: constraint '{}' ({}) is redundant in {} of its {} equations, which the "
+        "constraints before it imply at the nominal geometry: the other {} are fused\n",
+        c.name, graph.Describe(c), c.redundant_rows, written, c.residual->dimension());
+  }
   for (const auto& [name, rows] : s.dof.redundant) {
     const Constraint& c = graph.constraints[graph.FindConstraint(name)];
     out << fmt::format("note: constraint '{}' ({}) is redundant in {} of its {} equation{}\n", name,

@@ -16,39 +16,39 @@ int NumericalRank(const Eigen::MatrixXd& A) {
   return rank;
 }
 
-DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {
-  DofReport report;
-  report.state_dim = graph.tangent_dim();
-  report.equations = graph.num_equations();
-  if (report.state_dim > kMaxDofStateDim) return report;
-  report.computed = true;
+namespace {
+
+// The constraints' Jacobian at `at`, an inequality's rows replaced by its slack's direction.
+Eigen::MatrixXd SlackedJacobian(const ConstraintGraph& graph, const Values& at) {
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   EvaluateConstraints(graph, at, &r, &J);
   // An inequality's row counts as its slack's own direction: with the slack away from 0 that
   // is what it adds anyway, and at a boundary (slack 0, e.g. a gripper at its lower limit) its
   // row alone would pin the other variables as an equality does.
-  {
-    int row = 0;
-    for (const Constraint& c : graph.constraints) {
-      if (c.slack_block >= 0) {
-        for (int i = 0; i < c.residual->dimension(); ++i) {
-          J.row(row + i).setZero();
-          J(row + i, graph.blocks[c.slack_block].tangent_offset) = 1;
-        }
+  int row = 0;
+  for (const Constraint& c : graph.constraints) {
+    if (c.slack_block >= 0) {
+      for (int i = 0; i < c.residual->dimension(); ++i) {
+        J.row(row + i).setZero();
+        J(row + i, graph.blocks[c.slack_block].tangent_offset) = 1;
       }
-      row += c.residual->dimension();
     }
+    row += c.residual->dimension();
   }
+  return J;
+}
 
-  // Rank and redundancy in one pass: Gram-Schmidt over the rows in constraint order
-  // (re-orthogonalised), so a constraint is redundant in the rows that add no new direction.
+// Gram-Schmidt over J's rows in constraint order (re-orthogonalised): each constraint's rows
+// that add a new direction.
+std::vector<std::vector<int>> RowsAddingRank(const ConstraintGraph& graph,
+                                             const Eigen::MatrixXd& J) {
+  std::vector<std::vector<int>> out;
   std::vector<Eigen::VectorXd> basis;
   int row = 0;
   for (const Constraint& c : graph.constraints) {
-    const int dim = c.residual->dimension();
-    int added = 0;
-    for (int i = 0; i < dim; ++i, ++row) {
+    out.emplace_back();
+    for (int i = 0; i < c.residual->dimension(); ++i, ++row) {
       Eigen::VectorXd v = J.row(row).transpose();
       const double norm0 = v.norm();
       if (norm0 == 0) continue;
@@ -56,12 +56,35 @@ DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {
         for (const Eigen::VectorXd& q : basis) v -= q.dot(v) * q;
       if (v.norm() > kRankTolerance * norm0) {
         basis.push_back(v.normalized());
-        ++added;
+        out.back().push_back(i);
       }
     }
+  }
+  return out;
+}
+
+}  // namespace
+
+std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at) {
+  if (graph.tangent_dim() > kMaxDofStateDim) return {};
+  return RowsAddingRank(graph, SlackedJacobian(graph, at));
+}
+
+DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {
+  DofReport report;
+  report.state_dim = graph.tangent_dim();
+  report.equations = graph.num_equations();
+  if (report.state_dim > kMaxDofStateDim) return report;
+  report.computed = true;
+  const Eigen::MatrixXd J = SlackedJacobian(graph, at);
+  const std::vector<std::vector<int>> kept = RowsAddingRank(graph, J);
+  for (size_t i = 0; i < graph.constraints.size(); ++i) {
+    const Constraint& c = graph.constraints[i];
+    const int dim = c.residual->dimension();
+    const int added = static_cast<int>(kept[i].size());
+    report.rank += added;
     if (added < dim) report.redundant.emplace_back(c.name, dim - added);
   }
-  report.rank = static_cast<int>(basis.size());
   report.dof = report.state_dim - report.rank;
 
   Eigen::MatrixXd G = Eigen::MatrixXd::Zero(report.state_dim, 6);  // columns: ω, v

@@ -42,6 +42,11 @@ inline constexpr int kMaxDofStateDim = 2000;
 
 DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at);
 
+// For each constraint, in graph order, the rows of its residual that add rank to the rows of
+// the constraints before it at `at` (an inequality's row counts as its slack's direction, as
+// above). Empty when the state is beyond kMaxDofStateDim.
+std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at);
+
 // Numerical rank by SVD with threshold kRankTolerance * max(1, σ_max).
 int NumericalRank(const Eigen::MatrixXd& A);
 

@@ -129,6 +129,9 @@ struct Constraint {
   std::vector<int> blocks;  // the residual's slots: block ids
   int slack_block = -1;     // the slack of an inequality (also among `blocks`), or -1
   SourceLocation where;
+  // Rows of the relation as written that the constraints before it already imply, left out
+  // of `residual` (constraints/row_selection.h).
+  int redundant_rows = 0;
 };
 
 struct ConstraintGraph {

@@ -5,12 +5,15 @@
 #include <algorithm>
 #include <cmath>
 
+#include "constraints/dof.h"
 #include "constraints/evaluate.h"
 #include "constraints/kinds/fix_pose.h"
 #include "constraints/kinds/joint_residual.h"
 #include "constraints/kinds/mimic_joint.h"
 #include "constraints/kinds/registry.h"
+#include "constraints/row_selection.h"
 #include "kernel/check.h"
+#include "kernel/evaluate.h"
 
 namespace cfuse {
 namespace {
@@ -629,6 +632,28 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   }
 }
 
-ConstraintGraph ModelBuilder::Build() && { return std::move(graph_); }
+ConstraintGraph ModelBuilder::Build() && {
+  // A constraint partly implied by those before it keeps its independent rows
+  // (constraints/row_selection.h). Ranks are taken at the nominal geometry, and only when the
+  // constraints hold there: off the constraint surface, rows that depend on each other on it
+  // need not.
+  const std::vector<std::vector<int>> kept = IndependentRows(graph_, graph_.nominal);
+  bool on_surface = !kept.empty();
+  Eigen::VectorXd r;
+  for (const Constraint& c : graph_.constraints) {
+    if (!on_surface) break;
+    EvaluateResidual(*c.residual, graph_.blocks, c.blocks, graph_.nominal, &r, nullptr);
+    on_surface = r.allFinite() && r.lpNorm<Eigen::Infinity>() <= 1e-9;
+  }
+  for (size_t i = 0; on_surface && i < kept.size(); ++i) {
+    Constraint& c = graph_.constraints[i];
+    const int dim = c.residual->dimension();
+    const int independent = static_cast<int>(kept[i].size());
+    if (independent == 0 || independent == dim || c.slack_block >= 0) continue;
+    c.redundant_rows += dim - independent;
+    c.residual = std::make_shared<RowSelection>(c.residual, kept[i]);
+  }
+  return std::move(graph_);
+}
 
 }  // namespace cfuse

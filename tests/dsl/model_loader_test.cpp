@@ -8,7 +8,10 @@
 
 #include "constraints/dof.h"
 #include "constraints/evaluate.h"
+#include "constraints/jacobian_checker.h"
 #include "constraints/model_builder.h"
+#include "constraints/row_selection.h"
+#include "kernel/evaluate.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {
@@ -34,7 +37,8 @@ TEST_CASE("examples: each loads with the DOF it was designed for, nominal geomet
   for (const ExampleDof& e :
        {ExampleDof{"examples/lamp.yaml", 11, 6, 5}, ExampleDof{"examples/scissors.yaml", 7, 6, 1},
         ExampleDof{"examples/hinged-box.yaml", 7, 6, 1},
-        ExampleDof{"examples/planar-arm.yaml", 3, 0, 3}}) {
+        ExampleDof{"examples/planar-arm.yaml", 3, 0, 3},
+        ExampleDof{"examples/four-bar.yaml", 7, 6, 1}}) {
     DYNAMIC_SECTION(e.file) {
       const ConstraintGraph g = LoadModel(testing::SourcePath(e.file));
       const DofReport r = AnalyzeDof(g, g.nominal);
@@ -45,6 +49,51 @@ TEST_CASE("examples: each loads with the DOF it was designed for, nominal geomet
       CHECK(MaxNominalResidual(g) < 1e-9);
     }
   }
+}
+
+TEST_CASE("examples: a loop closure the joints partly imply keeps its independent rows", "[dsl]") {
+  // The four-bar's `coupler.end == rocker.pin` repeats, along the parallel revolute axes, what
+  // the joints already hold: one of its three rows is left out, the other two are the
+  // relation's own values and derivatives.
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/four-bar.yaml"));
+  const Constraint& loop = g.constraints[g.FindConstraint("loop")];
+  CHECK(loop.redundant_rows == 1);
+  REQUIRE(loop.residual->dimension() == 2);
+  const auto* selection = dynamic_cast<const RowSelection*>(loop.residual.get());
+  REQUIRE(selection != nullptr);
+  CHECK(selection->inner().dimension() == 3);
+  CHECK(g.Describe(loop) == "coupler.end == rocker.pin");
+  const DofReport report = AnalyzeDof(g, g.nominal);
+  CHECK(report.redundant.empty());
+  CHECK(report.dof == 7);
+  // Away from the nominal geometry, the selected rows of the relation as written.
+  Values x = g.nominal;
+  Eigen::VectorXd move = Eigen::VectorXd::Constant(g.tangent_dim(), 0.05);
+  Retract(g.blocks, move, &x);
+  Eigen::VectorXd all, some;
+  Eigen::MatrixXd j_all, j_some;
+  EvaluateResidual(selection->inner(), g.blocks, loop.blocks, x, &all, &j_all);
+  EvaluateResidual(*loop.residual, g.blocks, loop.blocks, x, &some, &j_some);
+  for (int i = 0; i < 2; ++i) {
+    const int row = selection->rows()[i];
+    CHECK(some[i] == all[row]);
+    CHECK(j_some.row(i) == j_all.row(row));
+  }
+  testing::CheckJacobian(g.blocks, *loop.residual, loop.blocks, x);
+}
+
+TEST_CASE("examples: off the constraint surface no row is left out", "[dsl]") {
+  // The same loop with the rocker's angle 1 degree off: the nominal geometry violates the
+  // closure, where ranks say nothing about the surface, and every row is kept.
+  std::ifstream in(testing::SourcePath("examples/four-bar.yaml"));
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const std::string exact = "position: 75.22868402252183";
+  REQUIRE(text.find(exact) != std::string::npos);
+  text.replace(text.find(exact), exact.size(), "position: 76.22868402252183");
+  const ConstraintGraph g = LoadModelFromString(text, "four-bar-open.yaml", testing::SourcePath("examples"));
+  const Constraint& loop = g.constraints[g.FindConstraint("loop")];
+  CHECK(loop.redundant_rows == 0);
+  CHECK(loop.residual->dimension() == 3);
 }
 
 TEST_CASE("examples: the lamp is the paper's 23-point model", "[dsl]") {
