@@ -88,6 +88,18 @@ int Verdict(const ConstraintGraph& graph, const Solution& solution, std::ostream
     return 1;
   }
   ReportUndetermined(solution, err);
+  if (!solution.alternatives.empty() && solution.fits) {
+    std::string fits;
+    for (const Solution::Alternative& a : solution.alternatives) {
+      fits += fmt::format("{}chi-square {:.4g} (p = {:.2g})", fits.empty() ? "" : ", ", a.fit.chi2,
+                          a.fit.p_value);
+    }
+    err << fmt::format(
+        "cfuse: warning: the measurements fit {} other solution{} about as well ({}; this one "
+        "{:.4g}): the data do not decide between them (\"alternatives\" in the result)\n",
+        solution.alternatives.size(), solution.alternatives.size() == 1 ? "" : "s", fits,
+        solution.analysis.fit.chi2);
+  }
   if (!solution.fits) {
     err << FitRefusal(solution) << "\n";
     return 1;

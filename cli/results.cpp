@@ -96,6 +96,18 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
                 {"p_value", fit.p_value},
                 {"residuals", fit.residuals}};
   out["undetermined"] = solution.undetermined;
+  out["alternatives"] = nlohmann::json::array();
+  for (const Solution::Alternative& a : solution.alternatives) {
+    nlohmann::json alternative = PosesJson(graph, a.mean);
+    alternative["fit"] = {{"chi2", a.fit.chi2}, {"dof", a.fit.dof}, {"p_value", a.fit.p_value}};
+    alternative["joints"] = nlohmann::json::object();
+    const Eigen::VectorXd q = JointValues(graph, a.mean);
+    int k = 0;
+    for (const Joint& j : graph.joints) {
+      if (HasJointVariable(j.type)) alternative["joints"][j.name] = {{"value", q[k++]}};
+    }
+    out["alternatives"].push_back(alternative);
+  }
   out["status"] = {{"converged", solution.summary.converged && solution.fits},
                    {"constraints_hold", solution.summary.converged},
                    {"fits", solution.fits},

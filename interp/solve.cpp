@@ -336,7 +336,8 @@ std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const Mea
 }
 
 Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
-                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options) {
+                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options,
+                       bool each_component) {
   // 1. A global rigid guess from all labelled points against the nominal geometry.
   Correspondences global;
   std::vector<Correspondences> per_component(graph.components.size());
@@ -360,7 +361,7 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
   for (Eigen::Vector3d& p : initial.points) p = world_from_nominal * p;
 
   // 2. Each component's own closed-form start where its labels allow one.
-  for (size_t c = 0; c < graph.components.size(); ++c) {
+  for (size_t c = 0; each_component && c < graph.components.size(); ++c) {
     const Component& comp = graph.components[c];
     const Correspondences& k = per_component[c];
     if (!comp.rigid) {
@@ -398,7 +399,7 @@ namespace {
 // not fused, and reported in `invalid`.
 void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& labels,
-                   Solution* solution) {
+                   Solution* solution, const Values* start = nullptr) {
   solution->contradictions.clear();
   solution->invalid.clear();
 
@@ -413,10 +414,15 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
         };
         return named(options.guess->components) || named(options.guess->points);
       });
-  Values initial = guess_covers_all ? graph.nominal : ClosedFormStart(graph, set, labels, options);
+  Values initial = start              ? *start
+                   : guess_covers_all ? graph.nominal
+                                      : ClosedFormStart(graph, set, labels, options);
 
   Values unplaced;  // the start before unmeasured points are placed: the fallback below
-  if (options.guess) {
+  if (start) {
+    unplaced = initial;
+    MatchSlacks(graph, &unplaced);
+  } else if (options.guess) {
     ApplyGuess(graph, *options.guess, &initial);
   } else {
     unplaced = initial;
@@ -512,7 +518,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     }
     return other.chi2 < fit.chi2;
   };
-  if (!acceptable() && !options.guess) {
+  if (!acceptable() && !options.guess && !start) {
     // Placing unmeasured points can still pick the wrong one of two places their constraints
     // allow (a mirror image about their neighbours); the unplaced start is the second try.
     GaussianState state = MakePrior(graph.blocks, unplaced, scale);
@@ -551,6 +557,138 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   }
 }
 
+// `start` turned about the centroid of the labelled points of `component` (every rigid
+// component and point when -1) so that the plane those points lie nearest to has its normal
+// mirrored about the line of sight (the camera at the world's origin): the other pose a
+// near-planar set of points seen in one image can take, projecting to nearly the same place.
+// False when there are fewer than three such points.
+bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& labels,
+              int component, Values* start) {
+  std::vector<Eigen::Vector3d> points;
+  for (const ResolvedLabel& r : labels) {
+    if (component < 0 || r.component == component) {
+      points.push_back(ModelPoint(graph, *start, r.component, r.feature));
+    }
+  }
+  if (points.size() < 3) return false;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::Vector3d normal = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
+  if (!(centroid.norm() > 0)) return false;
+  const Eigen::Vector3d sight = centroid.normalized();
+  const Eigen::Vector3d mirrored = 2 * normal.dot(sight) * sight - normal;
+  const Eigen::Quaterniond turn = Eigen::Quaterniond::FromTwoVectors(normal, mirrored);
+  const Rigid3d about(turn, centroid - turn * centroid);
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (component >= 0 && static_cast<int>(c) != component) continue;
+    const Block& b = graph.blocks[graph.components[c].block];
+    if (b.kind == BlockKind::kPose) {
+      start->poses[b.index] = about * start->poses[b.index];
+    } else {
+      start->points[b.index] = about * start->points[b.index];
+    }
+  }
+  return true;
+}
+
+// Whether `other` is a different answer from `best`: a component turned or moved beyond both
+// a floor (3 degrees, 5 % of the model's extent) and three standard deviations of `best`'s
+// estimate (the largest, along any axis), so that two starts ending in one flat valley are
+// one answer.
+bool Distinct(const ConstraintGraph& graph, const Values& other, const GaussianState& best,
+              double extent) {
+  for (const Component& c : graph.components) {
+    const Block& block = graph.blocks[c.block];
+    const int o = block.tangent_offset;
+    if (block.kind == BlockKind::kPose) {
+      const Rigid3d& pa = other.poses[block.index];
+      const Rigid3d& pb = best.mean.poses[block.index];
+      const double turn_sigma =
+          std::sqrt(std::max(0.0, best.covariance.block<3, 3>(o, o).eigenvalues().real().maxCoeff()));
+      const double move_sigma = std::sqrt(
+          std::max(0.0, best.covariance.block<3, 3>(o + 3, o + 3).eigenvalues().real().maxCoeff()));
+      if (pa.rotation.angularDistance(pb.rotation) > std::max(3 * M_PI / 180, 3 * turn_sigma) ||
+          (pa.translation - pb.translation).norm() > std::max(0.05 * extent, 3 * move_sigma)) {
+        return true;
+      }
+    } else if (block.kind == BlockKind::kPoint) {
+      const double move_sigma = std::sqrt(
+          std::max(0.0, best.covariance.block<3, 3>(o, o).eigenvalues().real().maxCoeff()));
+      if ((other.points[block.index] - best.mean.points[block.index]).norm() >
+          std::max(0.05 * extent, 3 * move_sigma)) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
+bool Sound(const Solution& s) {
+  return s.summary.converged && s.contradictions.empty() && s.invalid.empty();
+}
+
+// From image measurements a solve can end in one of several minima (a near-planar part or the
+// whole object mirrored about the line of sight). The other closed-form start (the nominal
+// geometry moved as one body) and the mirror images of both starts, whole and part by part,
+// are solved too; the best fit becomes the solution and the other distinct minima that the fit
+// test does not reject its alternatives.
+void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
+                   const SolveOptions& options, const std::vector<ResolvedLabel>& used,
+                   Solution* solution) {
+  const Values each = ClosedFormStart(graph, set, used, options, true);
+  const Values whole = ClosedFormStart(graph, set, used, options, false);
+  std::vector<Values> starts = {whole};
+  for (const Values* base : {&each, &whole}) {
+    Values mirrored = *base;
+    if (Mirrored(graph, used, -1, &mirrored)) starts.push_back(mirrored);
+  }
+  for (size_t c = 0; c < graph.components.size() && graph.components.size() > 1; ++c) {
+    if (!graph.components[c].rigid) continue;
+    Values mirrored = each;
+    if (Mirrored(graph, used, static_cast<int>(c), &mirrored)) starts.push_back(mirrored);
+  }
+  std::vector<Solution> found;
+  for (const Values& start : starts) {
+    Solution other;
+    other.extent = solution->extent;
+    SolveLabelled(graph, set, options, used, &other, &start);
+    if (!Sound(other)) continue;
+    other.fits = other.analysis.fit.p_value >= options.min_p_value;
+    found.push_back(std::move(other));
+  }
+  // The best: the lowest chi-square among the sound ones.
+  auto better = [](const Solution& a, const Solution& b) {
+    return a.analysis.fit.chi2 < b.analysis.fit.chi2;
+  };
+  for (Solution& other : found) {
+    if (Sound(*solution) && !better(other, *solution)) continue;
+    std::swap(solution->state, other.state);
+    std::swap(solution->summary, other.summary);
+    std::swap(solution->analysis, other.analysis);
+    std::swap(solution->contradictions, other.contradictions);
+    std::swap(solution->invalid, other.invalid);
+    std::swap(solution->fits, other.fits);
+  }
+  // (`found` now holds every sound answer but the best, the first one included if replaced.)
+  std::sort(found.begin(), found.end(), better);
+  for (const Solution& other : found) {
+    if (!Sound(other) || !other.fits) continue;
+    if (!Distinct(graph, other.state.mean, solution->state, solution->extent)) continue;
+    const bool seen = std::any_of(found.begin(), found.begin() + (&other - found.data()),
+                                  [&](const Solution& earlier) {
+                                    return Sound(earlier) && earlier.fits &&
+                                           Distinct(graph, earlier.state.mean, solution->state,
+                                                    solution->extent) &&
+                                           !Distinct(graph, other.state.mean, earlier.state,
+                                                     solution->extent);
+                                  });
+    if (!seen) solution->alternatives.push_back({other.state.mean, other.analysis.fit});
+  }
+}
+
 // The components and joints that the free directions of the solution's analysis move.
 std::vector<std::string> UndeterminedNames(const ConstraintGraph& graph, const Solution& solution) {
   std::vector<std::string> out;
@@ -583,8 +721,20 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   std::vector<ResolvedLabel> used = solution.labels;
   const size_t max_rejected = used.size() / 5;
   const double gate_3d = ChiSquareQuantile(1 - 1e-9, 3), gate_2d = ChiSquareQuantile(1 - 1e-9, 2);
-  while (true) {
+  // Outliers are judged at the best of the minima, not at the first one found.
+  const bool image = std::any_of(used.begin(), used.end(), [&](const ResolvedLabel& r) {
+    return !set.points[r.measurement].is_3d;
+  });
+  const auto solve = [&] {
     SolveLabelled(graph, set, options, used, &solution);
+    solution.fits = solution.analysis.fit.p_value >= options.min_p_value;
+    solution.alternatives.clear();
+    if (options.explore_starts && image && !options.guess) {
+      ExploreStarts(graph, set, options, used, &solution);
+    }
+  };
+  while (true) {
+    solve();
     if (!options.reject_outliers || solution.rejected.size() >= max_rejected) break;
     // The measurement farthest beyond its gate; one at a time, as an outlier drags the others.
     int worst = -1;
@@ -627,10 +777,9 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
       std::sort(used.begin(), used.end(), [](const ResolvedLabel& a, const ResolvedLabel& b) {
         return a.measurement < b.measurement;
       });
-      SolveLabelled(graph, set, options, used, &solution);
+      solve();
     }
   }
-  solution.fits = solution.analysis.fit.p_value >= options.min_p_value;
   solution.undetermined = UndeterminedNames(graph, solution);
   return solution;
 }

@@ -63,6 +63,9 @@ struct SolveOptions {
   // The fit (kernel/fit_analysis.h) below which a solution is refused: the chance that
   // measurements with the stated noise fit the model this badly.
   double min_p_value = 1e-3;
+  // From image measurements, without a guess: solved again from the other closed-form start
+  // and the mirror images of both (Solution::alternatives).
+  bool explore_starts = true;
 };
 
 // A labelled measurement resolved to its model point.
@@ -91,6 +94,14 @@ struct Solution {
   FitAnalysis analysis;
   std::vector<std::string> undetermined;
   bool fits = true;  // analysis.fit.p_value >= SolveOptions::min_p_value
+  // Other minima, distinct from this one, that the fit test does not reject either (from image
+  // measurements: a near-planar part or the whole object mirrored), best fit first. The data
+  // do not decide between them and the solution.
+  struct Alternative {
+    Values mean;
+    Fit fit;
+  };
+  std::vector<Alternative> alternatives;
 
   // Every constraint holds, nothing was contradictory or not finite, and the data fit.
   bool accepted() const {
@@ -116,8 +127,10 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
 
 // Steps 1 and 2 above: the nominal geometry moved onto the labelled measurements, then every
 // component with enough labels at its own closed-form pose (options.guess is not applied).
+// `each_component` false: step 1 alone, the nominal geometry moved as one body.
 Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
-                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options);
+                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options,
+                       bool each_component = true);
 
 // The guess's poses and points in place of `values`' (a merged link's frame places its
 // component); an unknown name is an InputError at its entry.

@@ -38,7 +38,8 @@ TEST_CASE("examples: each loads with the DOF it was designed for, nominal geomet
        {ExampleDof{"examples/lamp.yaml", 11, 6, 5}, ExampleDof{"examples/scissors.yaml", 7, 6, 1},
         ExampleDof{"examples/hinged-box.yaml", 7, 6, 1},
         ExampleDof{"examples/planar-arm.yaml", 3, 0, 3},
-        ExampleDof{"examples/four-bar.yaml", 7, 6, 1}}) {
+        ExampleDof{"examples/four-bar.yaml", 7, 6, 1},
+        ExampleDof{"examples/folding-ruler.yaml", 9, 6, 3}}) {
     DYNAMIC_SECTION(e.file) {
       const ConstraintGraph g = LoadModel(testing::SourcePath(e.file));
       const DofReport r = AnalyzeDof(g, g.nominal);

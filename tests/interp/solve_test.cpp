@@ -499,6 +499,92 @@ TEST_CASE("solve: the joints' Jacobian matches finite differences", "[interp]") 
   }
 }
 
+TEST_CASE("solve: a folding ruler from one image: every answer accepted is right", "[interp]") {
+  // A nearly flat object seen in one image can end in a mirrored minimum; the mirrored starts
+  // find the right one, and whatever is accepted is right (its joints within 5 standard
+  // deviations and 10 degrees of the truth).
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
+  int accepted[2] = {0, 0}, wrong[2] = {0, 0};
+  for (int explore = 0; explore < 2; ++explore) {
+    for (unsigned seed = 1; seed <= 20; ++seed) {
+      CAPTURE(explore, seed);
+      SimulateOptions sim_options;
+      sim_options.seed = seed;
+      sim_options.labels = true;
+      sim_options.sample_joints = true;
+      sim_options.camera = testing::Pinhole();
+      const Simulation sim = Simulate(g, sim_options);
+      SolveOptions options;
+      options.pose_from_projections = &vision::PoseFromProjections;
+      options.reject_outliers = true;
+      options.explore_starts = explore == 1;
+      const Solution s = Solve(g, sim.measurements, options);
+      if (!s.accepted()) continue;
+      ++accepted[explore];
+      const JointEstimates q = EstimateJoints(g, s.state);
+      const Eigen::VectorXd truth = JointValues(g, sim.truth);
+      for (int j = 0; j < truth.size(); ++j) {
+        const double error = std::abs(q.values[j] - truth[j]);
+        if (error > 10 * M_PI / 180 && error > 5 * std::sqrt(q.covariance(j, j))) {
+          ++wrong[explore];
+          break;
+        }
+      }
+      CHECK(s.rejected.empty());  // no outliers were simulated
+    }
+  }
+  INFO("accepted " << accepted[0] << " and " << accepted[1] << " of 20, wrong " << wrong[0]
+                   << " and " << wrong[1]);
+  CHECK(wrong[0] == 0);
+  CHECK(wrong[1] == 0);
+  CHECK(accepted[1] >= 18);
+  CHECK(accepted[0] <= 14);  // what the mirrored starts are for
+}
+
+TEST_CASE("solve: a small square far off in one image has two answers, both said", "[interp]") {
+  // Four corners of a 100 mm square 3 m away, turned 40 degrees: the square and its mirror
+  // image about the line of sight project within a pixel of each other.
+  const ConstraintGraph g = dsl::LoadModelFromString(R"(
+name: square
+units: {length: mm}
+components:
+  plate:
+    points:
+      a: [0, 0, 0]
+      b: [100, 0, 0]
+      c: [100, 100, 0]
+      d: [0, 100, 0]
+)",
+                                                     "square.yaml", testing::SourcePath("examples"));
+  const Camera camera = testing::Pinhole();
+  int both = 0, truth_among = 0;
+  for (int seed = 0; seed < 20; ++seed) {
+    std::mt19937 rng(seed);
+    std::normal_distribution<double> pixel(0, 0.5);
+    const Rigid3d pose(Eigen::Quaterniond(Eigen::AngleAxisd(40 * M_PI / 180, Eigen::Vector3d(1, 0.3, 0).normalized())),
+                       Eigen::Vector3d(-0.05, -0.05, 3));
+    const Values truth = Moved(g, pose);
+    const MeasurementSet set = MeasureImage(g, truth, camera, pixel, rng);
+    SolveOptions options;
+    options.pose_from_projections = &vision::PoseFromProjections;
+    const Solution s = Solve(g, set, options);
+    REQUIRE(s.accepted());
+    const auto turn = [&](const Values& v) {
+      return v.poses[0].rotation.angularDistance(truth.poses[0].rotation) * 180 / M_PI;
+    };
+    both += !s.alternatives.empty();
+    bool found = turn(s.state.mean) < 10;
+    for (const Solution::Alternative& a : s.alternatives) {
+      CHECK(a.fit.p_value >= options.min_p_value);
+      CHECK(turn(a.mean) != Approx(turn(s.state.mean)).margin(3));
+      found |= turn(a.mean) < 10;
+    }
+    truth_among += found;
+  }
+  CHECK(both >= 15);
+  CHECK(truth_among == 20);
+}
+
 TEST_CASE("solve: what the measurements leave free is named", "[interp]") {
   // The hinged box measured on the box alone: the lid's angle is anyone's guess.
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
