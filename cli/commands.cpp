@@ -23,6 +23,7 @@
 #include "dsl/model_writer.h"
 #include "dsl/pose_reader.h"
 #include "interp/interpretation.h"
+#include "interp/joint_estimates.h"
 #include "interp/parametric.h"
 #include "interp/schedule.h"
 #include "interp/simulate.h"
@@ -325,10 +326,41 @@ int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err) {
     std::vector<JointValue> given;
     if (!options.joints.empty()) given = dsl::ReadJointValues(options.joints);
     const std::map<std::string, double> q = CompleteJointValues(graph, given);
-    const Values values = ForwardKinematics(graph, q);
+    for (const Joint& j : graph.joints) {
+      const auto it = q.find(j.name);
+      if (!j.limits || it == q.end()) continue;
+      if (it->second < j.limits->first || it->second > j.limits->second) {
+        const bool angle = j.type != JointType::kPrismatic;
+        const double unit = angle ? 180 / M_PI : 1000;
+        err << fmt::format("cfuse: warning: joint '{}' at {:.6g} {} is beyond its limits [{:.6g}, "
+                           "{:.6g}] {} ({})\n",
+                           j.name, it->second * unit, angle ? "deg" : "mm", j.limits->first * unit,
+                           j.limits->second * unit, angle ? "deg" : "mm", j.where.ToString());
+      }
+    }
+    const Values open = ForwardKinematics(graph, q);
+    Values values = open;
+    // A closed chain: the given joints held, the others moved until every equality holds.
+    std::map<std::string, double> held;
+    for (const JointValue& v : given) held[v.name] = q.count(v.name) ? q.at(v.name) : v.value;
+    if (!CloseLoops(graph, held, ModelExtent(graph), false, &values)) {
+      err << fmt::format("cfuse: the model's constraints cannot all hold at these joint values{}\n",
+                         FarthestConstraint(graph, values));
+      return 1;
+    }
     nlohmann::json result = PosesJson(graph, values);
     result["joints"] = nlohmann::json::object();
-    for (const auto& [name, value] : q) result["joints"][name] = {{"value", value}};
+    const bool moved = !std::equal(
+        open.poses.begin(), open.poses.end(), values.poses.begin(),
+        [](const Rigid3d& a, const Rigid3d& b) { return a.translation == b.translation; });
+    const Eigen::VectorXd taken = JointValues(graph, values);
+    int k = 0;
+    for (const Joint& j : graph.joints) {
+      if (!HasJointVariable(j.type)) continue;
+      // The values as given where nothing moved (no rounding through the poses).
+      result["joints"][j.name] = {{"value", moved ? taken[k] : q.at(j.name)}};
+      ++k;
+    }
     const std::string text = JsonText(result, 2) + "\n";
     if (options.output.empty()) {
       out << text;

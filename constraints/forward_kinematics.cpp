@@ -6,7 +6,11 @@
 #include <cmath>
 #include <functional>
 
+#include "constraints/evaluate.h"
 #include "constraints/kinds/fix_pose.h"
+#include "constraints/kinds/joint_residual.h"
+#include "kernel/batch_solver.h"
+#include "kernel/evaluate.h"
 
 namespace cfuse {
 
@@ -63,7 +67,7 @@ std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
       return joint.mimic->multiplier * value_of(joint.mimic->leader) + joint.mimic->offset;
     }
     const auto it = given.find(joint.name);
-    return it == given.end() ? 0.0 : it->second;
+    return it == given.end() ? joint.nominal_position : it->second;
   };
   for (size_t j = 0; j < graph.joints.size(); ++j) {
     if (HasJointVariable(graph.joints[j].type)) {
@@ -146,6 +150,62 @@ std::vector<std::pair<std::string, Rigid3d>> FramePoses(const ConstraintGraph& g
     }
   }
   return out;
+}
+
+namespace {
+
+// A joint's variable less a value: holds the joint there.
+class JointAt : public ResidualFunction {
+ public:
+  JointAt(const Joint& j, double value)
+      : ResidualFunction(1, {BlockKind::kPose, BlockKind::kPose}),
+        q_(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
+           j.type == JointType::kPrismatic, JointValueFunction::BranchCentre(j)),
+        value_(value) {}
+  void Evaluate(std::span<const BlockState<double>> x, double* r) const override {
+    q_.Evaluate(x, r);
+    r[0] -= value_;
+  }
+  void Evaluate(std::span<const BlockState<Jet>> x, Jet* r) const override {
+    q_.Evaluate(x, r);
+    r[0] -= value_;
+  }
+  std::string Describe(std::span<const std::string> names) const override {
+    return q_.Describe(names) + fmt::format(" == {}", value_);
+  }
+
+ private:
+  JointValueFunction q_;
+  double value_;
+};
+
+}  // namespace
+
+bool CloseLoops(const ConstraintGraph& graph, const std::map<std::string, double>& held,
+                double extent, bool inequalities, Values* values) {
+  std::vector<Factor> factors;
+  for (const Constraint& c : graph.constraints) {
+    if (c.slack_block >= 0 && !inequalities) continue;
+    factors.push_back({c.residual, c.blocks, {}, c.name});
+  }
+  MatchSlacks(graph, values);
+  const double tolerance = 1e-10 * extent;
+  if (MaxConstraintResidual(factors, graph.blocks, *values) <= tolerance) return true;
+  for (const auto& [name, value] : held) {
+    const int j = graph.FindJoint(name);
+    if (j < 0 || !HasJointVariable(graph.joints[j].type) || graph.joints[j].mimic) continue;
+    const Joint& joint = graph.joints[j];
+    factors.push_back({std::make_shared<JointAt>(joint, value),
+                       {graph.components[joint.parent].block, graph.components[joint.child].block},
+                       {},
+                       name});
+  }
+  GaussianState state = MakePrior(graph.blocks, *values, PriorScale{0.01 * extent, 0.03, 1e-3});
+  const BatchSummary summary = SolveBatch(factors, &state, {}, &graph.nominal);
+  if (!summary.converged || !(summary.max_constraint_residual <= tolerance)) return false;
+  *values = state.mean;
+  if (!inequalities) MatchSlacks(graph, values);
+  return true;
 }
 
 }  // namespace cfuse

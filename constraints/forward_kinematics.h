@@ -5,7 +5,7 @@
 // from the roots of the joint forest down. A root (a rigid component that is no joint's child)
 // sits at the target of a `fixed` pose constraint on it if the model has one (a known base
 // pose), else at its nominal pose (a URDF's root link: the identity). Joints not given are at
-// 0; a mimic joint follows its leader (q = multiplier * q_leader + offset) and may not be
+// their nominal position (the DSL's `position`, 0 for a URDF); a mimic joint follows its leader (q = multiplier * q_leader + offset) and may not be
 // given; spherical, planar and floating joints take their nominal motion. Single-point
 // components keep their nominal positions; slacks are left at their nominal values.
 #pragma once
@@ -24,7 +24,7 @@ struct JointValue {
   SourceLocation where;  // where it was given, for messages
 };
 
-// The joint values every variable joint takes: the given ones, 0 for the rest, mimic joints
+// The joint values every variable joint takes: the given ones, the nominal position for the rest, mimic joints
 // from their leaders. A mimic joint's or a locked joint's (MergedJoint) value may be given if it
 // is the one it must take. Throws InputError at a value's `where` for a name that is no joint
 // of the model, a joint without a variable, a value a mimic or locked joint cannot take, a
@@ -40,5 +40,14 @@ Values ForwardKinematics(const ConstraintGraph& graph,
 // in the model's order.
 std::vector<std::pair<std::string, Rigid3d>> FramePoses(const ConstraintGraph& graph,
                                                         const Values& values);
+
+// Forward kinematics leaves a closed chain open (a four-bar's loop, a relation that is no
+// joint): `values` moved to the configuration nearest it (positions within about 1 % of
+// `extent`, rotations 0.03 rad, in a Gaussian prior) where every constraint holds to 1e-10 x
+// `extent`, the joints in `held` kept at their values. Inequalities are included only when
+// `inequalities` is set (else their slacks are set afterwards, and may be violated). False,
+// and `values` unchanged, when no such configuration is found.
+bool CloseLoops(const ConstraintGraph& graph, const std::map<std::string, double>& held,
+                double extent, bool inequalities, Values* values);
 
 }  // namespace cfuse

@@ -57,14 +57,7 @@ Values JointSample(const ConstraintGraph& g, std::mt19937& rng, double extent) {
     values.push_back({j.name, std::uniform_real_distribution<double>(lo, hi)(rng), {}});
   }
   Values sample = ForwardKinematics(g, CompleteJointValues(g, values));
-  double g_value = 0;
-  for (const Constraint& c : g.constraints) {
-    if (c.slack_block < 0 || c.residual->dimension() != 1) continue;
-    double& slack = sample.slacks[g.blocks[c.slack_block].index];
-    slack = 0;
-    EvaluateResidualAt(*c.residual, g.blocks, c.blocks, sample, nullptr, &g_value, nullptr);
-    slack = std::sqrt(std::max(g_value, 0.0));
-  }
+  MatchSlacks(g, &sample);
   return sample;
 }
 
@@ -74,18 +67,16 @@ Values Configuration(const ConstraintGraph& g, const SimulateOptions& options, s
   for (const Constraint& c : g.constraints)
     constraints.push_back({c.residual, c.blocks, {}, c.name});
   if (options.sample_joints) {
-    const Values sample = JointSample(g, rng, extent);
-    if (constraints.empty() ||
-        MaxConstraintResidual(constraints, g.blocks, sample) <= 1e-10 * extent) {
-      return sample;
+    // Constraints beyond the joints (a closed loop, an inequality between parts): the nearest
+    // configuration meeting them, or another sample where there is none (a loop that cannot
+    // close at the crank's angle drawn).
+    for (int attempt = 0; attempt < 1000; ++attempt) {
+      Values sample = JointSample(g, rng, extent);
+      if (CloseLoops(g, {}, extent, true, &sample)) return sample;
     }
-    // Constraints beyond the joints (a closed loop): the nearest configuration meeting them.
-    GaussianState state = MakePrior(g.blocks, sample, PriorScale{0.01 * extent, 0.03, 1e-3});
-    const BatchSummary summary = SolveBatch(constraints, &state, {}, &g.nominal);
-    if (summary.converged && summary.max_constraint_residual <= 1e-10 * extent) return state.mean;
     throw InputError(SourceLocation(g.source),
-                     "cannot simulate: the sampled joint values do not meet the model's other "
-                     "constraints");
+                     "cannot simulate: no joint values drawn inside the limits (1000 tries) meet "
+                     "the model's other constraints");
   }
   for (double scale = options.perturbation; scale > 1e-4; scale *= 0.5) {
     std::normal_distribution<double> n(0, 1);

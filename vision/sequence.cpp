@@ -68,6 +68,14 @@ Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, doub
   Values values = ForwardKinematics(graph, CompleteJointValues(graph, given));
   const int root = RootComponent(graph);
   if (root < 0) throw std::invalid_argument("the model has no rigid root component");
+  // A closed chain (a loop, a relation that is no joint) closed at the configuration nearest
+  // the joints' waves; its size for the tolerance: the farthest component from the root.
+  const Eigen::Vector3d root_at = values.poses[graph.blocks[graph.components[root].block].index].translation;
+  double size = 0.1;
+  for (const Rigid3d& pose : values.poses) size = std::max(size, (pose.translation - root_at).norm());
+  if (!CloseLoops(graph, {}, size, false, &values)) {
+    throw std::invalid_argument("the model's constraints cannot all hold along the sequence");
+  }
   const double t = i;
   const Eigen::Vector3d turn = spec.spin * t;
   const Eigen::Matrix3d R = ExpSO3<double>(turn) * spec.start.RotationMatrix();

@@ -130,6 +130,7 @@ TEST_CASE("cli: fk writes every link's pose for the joint values", "[cli]") {
   const fs::path joints = dir / "q.json", poses = dir / "poses.json";
   std::ofstream(joints) << "{\"shoulder\": 0.5, \"slide\": {\"value\": 0.02}, \"grip_a\": 0.01}\n";
   std::ostringstream out, err;
+  INFO(err.str());
   REQUIRE(RunFk({urdf, joints.string(), poses.string()}, out, err) == 0);
   std::ifstream in(poses);
   const nlohmann::json j = nlohmann::json::parse(in);

@@ -1,0 +1,83 @@
+// Closed chains everywhere a configuration is made: forward kinematics closing a loop with the
+// given joints held, sampling on the constraint surface, rendered sequences that keep every
+// constraint, and joints not given at the model's own `position`.
+#include <catch2/catch.hpp>
+#include <cmath>
+
+#include "constraints/evaluate.h"
+#include "constraints/forward_kinematics.h"
+#include "dsl/model_loader.h"
+#include "interp/joint_estimates.h"
+#include "interp/simulate.h"
+#include "interp/solve.h"
+#include "test_util.h"
+#include "vision/sequence.h"
+
+namespace cfuse {
+namespace {
+
+double LargestEquality(const ConstraintGraph& g, const Values& values) {
+  double largest = 0;
+  Eigen::VectorXd r;
+  for (const Constraint& c : g.constraints) {
+    EvaluateResidual(*c.residual, g.blocks, c.blocks, values, &r, nullptr);
+    if (c.slack_block < 0) largest = std::max(largest, r.cwiseAbs().maxCoeff());
+  }
+  return largest;
+}
+
+ConstraintGraph FourBar() { return dsl::LoadModel(testing::SourcePath("examples/four-bar.yaml")); }
+
+TEST_CASE("closed chains: forward kinematics leaves the loop open, CloseLoops closes it",
+          "[interp]") {
+  const ConstraintGraph g = FourBar();
+  const std::map<std::string, double> q = CompleteJointValues(g, {{"crank_pivot", 2.0, {}}});
+  Values values = ForwardKinematics(g, q);
+  CHECK(LargestEquality(g, values) > 1e-3);  // the coupler and rocker at their nominal angles
+  REQUIRE(CloseLoops(g, {{"crank_pivot", 2.0}}, ModelExtent(g), false, &values));
+  CHECK(LargestEquality(g, values) < 1e-10);
+  CHECK(JointValues(g, values)[g.FindJoint("crank_pivot")] == Approx(2.0).margin(1e-9));  // held
+  // Two joints of a one-DOF loop held at values that do not agree: no configuration, and the
+  // values are left as they were.
+  Values open = ForwardKinematics(g, q);
+  const Values before = open;
+  CHECK_FALSE(CloseLoops(g, {{"crank_pivot", 2.0}, {"rocker_pivot", 0.0}}, ModelExtent(g), false,
+                         &open));
+  CHECK(open.poses[2].translation == before.poses[2].translation);
+}
+
+TEST_CASE("closed chains: joints not given are at the model's position", "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const std::map<std::string, double> q = CompleteJointValues(g, {});
+  CHECK(q.at("hinge") == Approx(35 * M_PI / 180));
+}
+
+TEST_CASE("closed chains: joint samples of a closed linkage meet every constraint", "[interp]") {
+  for (const char* file : {"examples/four-bar.yaml", "examples/folding-ruler.yaml"}) {
+    CAPTURE(file);
+    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    for (unsigned seed = 1; seed <= 30; ++seed) {
+      CAPTURE(seed);
+      SimulateOptions options;
+      options.seed = seed;
+      options.sample_joints = true;
+      options.labels = true;
+      const Simulation sim = Simulate(g, options);
+      Eigen::VectorXd r;
+      EvaluateConstraints(g, sim.truth, &r, nullptr);
+      CHECK(r.cwiseAbs().maxCoeff() < 1e-9);
+    }
+  }
+}
+
+TEST_CASE("closed chains: a rendered sequence keeps the loop closed", "[interp]") {
+  const ConstraintGraph g = FourBar();
+  const vision::SequenceSpec spec = vision::StandardSequence(g, "steady", 40);
+  for (int i = 0; i < 40; i += 3) {
+    CAPTURE(i);
+    CHECK(LargestEquality(g, vision::SequencePose(g, spec, i)) < 1e-9);
+  }
+}
+
+}  // namespace
+}  // namespace cfuse
