@@ -114,10 +114,33 @@ int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err) 
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const ModelSummary summary = Summarize(graph);
+    std::optional<Solution> solution;
+    if (!options.measurements.empty()) {
+      const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+      SolveOptions solve;
+      solve.pose_from_projections = &vision::PoseFromProjections;
+      solve.reject_outliers = true;
+      solution = Solve(graph, set, solve);
+    }
     if (options.json) {
-      out << JsonText(SummaryJson(graph, summary), 2) << "\n";
+      nlohmann::json json = SummaryJson(graph, summary);
+      if (solution) {
+        json["measurements"] = {{"degrees_of_freedom", solution->analysis.model_dof},
+                                {"determined", solution->analysis.determined},
+                                {"undetermined", solution->undetermined}};
+      }
+      out << JsonText(json, 2) << "\n";
     } else {
       PrintSummary(graph, summary, out);
+      if (solution) {
+        const FitAnalysis& a = solution->analysis;
+        out << fmt::format("measurements ({}): determine {} of the model's {} degrees of freedom",
+                           options.measurements, a.determined, a.model_dof);
+        std::string names;
+        for (const std::string& n : solution->undetermined) names += (names.empty() ? "" : ", ") + n;
+        out << (names.empty() ? std::string("\n")
+                              : fmt::format("; undetermined: {}\n", names));
+      }
     }
     return 0;
   });

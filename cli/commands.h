@@ -14,6 +14,9 @@ namespace cfuse::cli {
 struct CheckOptions {
   std::string model;
   bool json = false;
+  // Labelled measurements: which components and joints they and the constraints leave
+  // undetermined, from the rank of the stacked Jacobian at the solved estimate.
+  std::string measurements;
 };
 int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err);
 

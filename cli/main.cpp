@@ -19,6 +19,8 @@ int main(int argc, char** argv) {
       app.add_subcommand("check", "Validate a model and summarise it, with its DOF");
   check_cmd->add_option("MODEL", check.model, "Model file (.yaml, .urdf or .cao)")->required();
   check_cmd->add_flag("--json", check.json, "Print the summary as JSON");
+  check_cmd->add_option("--measurements", check.measurements,
+                        "Labelled measurements: name what they leave undetermined");
 
   cfuse::cli::GraphOptions graph;
   CLI::App* graph_cmd = app.add_subcommand("graph", "Write the constraint graph in Graphviz dot");

@@ -22,7 +22,7 @@ TEST_CASE("cli: check --json reports the designed DOF of every example", "[cli]"
       {"examples/planar-arm.yaml", 3, 0, 3}};
   for (const auto& [file, dof, rigid, internal] : examples) {
     std::ostringstream out, err;
-    REQUIRE(RunCheck({testing::SourcePath(file), true}, out, err) == 0);
+    REQUIRE(RunCheck({testing::SourcePath(file), true, {}}, out, err) == 0);
     CHECK(err.str().empty());
     const nlohmann::json j = nlohmann::json::parse(out.str());
     CHECK(j["dof"]["total"] == dof);
@@ -39,7 +39,7 @@ TEST_CASE("cli: check prints the summary and warns about violated constraints", 
   std::ofstream(model) << "points: {a: [0, 0, 0], b: [1, 0, 0]}\nconstraints:\n"
                           "  - name: too_long\n    expr: distance(a, b) == 2 m\n";
   std::ostringstream out, err;
-  REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
+  REQUIRE(RunCheck({model.string(), false, {}}, out, err) == 0);
   CHECK(out.str().find("DOF: 5 (5 rigid-body + 0 internal)") != std::string::npos);
   CHECK(out.str().find(model.string() +
                        ":4:11: warning: constraint 'too_long' "
@@ -55,7 +55,7 @@ TEST_CASE("cli: check warns about a face that is not planar", "[cli]") {
       << "components:\n  plate:\n    points: {a: [0, 0, 0], b: [1, 0, 0], c: [1, 1, 0], "
          "d: [0, 1, 0.1]}\n    faces:\n      top: [a, b, c, d]\n";
   std::ostringstream out, err;
-  REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
+  REQUIRE(RunCheck({model.string(), false, {}}, out, err) == 0);
   CHECK(out.str().find(model.string() + ":5:7: warning: face 'top' of 'plate' is not planar") !=
         std::string::npos);
 }
@@ -74,22 +74,22 @@ TEST_CASE("cli: a model beyond the dense DOF analysis still loads and is summari
       out << "  - distance(p" << i << ", p" << i + 1 << ") == nominal\n";
   }
   std::ostringstream out, err;
-  REQUIRE(RunCheck({model.string(), false}, out, err) == 0);
+  REQUIRE(RunCheck({model.string(), false, {}}, out, err) == 0);
   CHECK(out.str().find("state dimension: 3000\n") != std::string::npos);
   CHECK(out.str().find("DOF: not computed (the dense rank analysis is limited to a state "
                        "dimension of 2000)") != std::string::npos);
   std::ostringstream json, err2;
-  REQUIRE(RunCheck({model.string(), true}, json, err2) == 0);
+  REQUIRE(RunCheck({model.string(), true, {}}, json, err2) == 0);
   CHECK(nlohmann::json::parse(json.str())["dof"].is_null());
 }
 
 TEST_CASE("cli: bad input exits with status 2 and one located message", "[cli]") {
   std::ostringstream out, err;
-  CHECK(RunCheck({"no/such/model.yaml", false}, out, err) == 2);
+  CHECK(RunCheck({"no/such/model.yaml", false, {}}, out, err) == 2);
   CHECK(err.str() == "no/such/model.yaml: error: cannot open: no such file\n");
   CHECK(out.str().empty());
   std::ostringstream out2, err2;
-  CHECK(RunCheck({testing::SourcePath("README.md"), false}, out2, err2) == 2);
+  CHECK(RunCheck({testing::SourcePath("README.md"), false, {}}, out2, err2) == 2);
   CHECK(err2.str().find("unsupported model format '.md'") != std::string::npos);
 }
 
@@ -105,8 +105,8 @@ TEST_CASE("cli: import writes a robot as a model file with the same DOF", "[cli]
   REQUIRE(RunImport({urdf, model.string()}, out, err) == 0);
   CHECK(err.str().empty());
   std::ostringstream a, b, e1, e2;
-  REQUIRE(RunCheck({urdf, true}, a, e1) == 0);
-  REQUIRE(RunCheck({model.string(), true}, b, e2) == 0);
+  REQUIRE(RunCheck({urdf, true, {}}, a, e1) == 0);
+  REQUIRE(RunCheck({model.string(), true, {}}, b, e2) == 0);
   CHECK(nlohmann::json::parse(a.str())["dof"]["total"] == 10);
   CHECK(nlohmann::json::parse(b.str())["dof"]["total"] == 10);
 

@@ -116,7 +116,7 @@ std::vector<std::pair<std::string, std::function<Runner(const std::string&)>>> M
   return {
       {"check",
        [](const std::string& m) -> Runner {
-         return [m](auto& out, auto& err) { return RunCheck({m, true}, out, err); };
+         return [m](auto& out, auto& err) { return RunCheck({m, true, {}}, out, err); };
        }},
       {"graph",
        [&ws](const std::string& m) -> Runner {
@@ -416,7 +416,7 @@ TEST_CASE("errors: a file that may not be read, of every kind", "[cli][errors]")
     ExpectRefused(
         ws,
         [&](auto& o, auto& e) {
-          return RunCheck({model, false}, o, e);
+          return RunCheck({model, false, {}}, o, e);
         },
         model + denied);
   }
