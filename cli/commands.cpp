@@ -82,13 +82,13 @@ void ReportUndetermined(const Solution& solution, std::ostream& err) {
 // or its measurements do not fit (why on stderr), else 0, with a warning naming what the data
 // leave free.
 int Verdict(const ConstraintGraph& graph, const Solution& solution, std::ostream& err) {
+  ReportUndetermined(solution, err);
   if (!solution.summary.converged) {
     err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes{}\n",
                        solution.summary.max_constraint_residual, solution.summary.passes,
                        FarthestConstraint(graph, solution.state.mean));
     return 1;
   }
-  ReportUndetermined(solution, err);
   if (!solution.alternatives.empty() && solution.fits) {
     std::string fits;
     for (const Solution::Alternative& a : solution.alternatives) {

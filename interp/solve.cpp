@@ -557,6 +557,27 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   }
 }
 
+// Whether the estimate leaves free something that measurement `r` (left out) would measure:
+// its Jacobian moves along a free direction of the solution's analysis.
+bool Unchecked(const ConstraintGraph& graph, const MeasurementSet& set, const ResolvedLabel& r,
+               const Solution& solution) {
+  const Eigen::MatrixXd& free = solution.analysis.free_directions;
+  if (free.cols() == 0) return false;
+  const int block = graph.components[r.component].block;
+  Eigen::VectorXd residual;
+  Eigen::MatrixXd a;
+  EvaluateResidual(*MeasurementResidual(graph, set, r), graph.blocks, {&block, 1},
+                   solution.state.mean, &residual, &a);
+  if (!a.allFinite()) return false;
+  const Block& b = graph.blocks[block];
+  for (int i = 0; i < a.rows(); ++i) {
+    Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(free.rows());
+    row.segment(b.tangent_offset, TangentDim(b.kind)) = a.row(i);
+    if (MovesAlong(row, free)) return true;
+  }
+  return false;
+}
+
 // `start` turned about the centroid of the labelled points of `component` (every rigid
 // component and point when -1) so that the plane those points lie nearest to has its normal
 // mirrored about the line of sight (the camera at the world's origin): the other pose a
@@ -763,7 +784,10 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
                                       [&](const ResolvedLabel& l) { return l.measurement == r->measurement; });
       const double square = GateSquare(graph, set, *label, solution.state, false);
       const double gate = set.points[r->measurement].is_3d ? gate_3d : gate_2d;
-      if (std::isfinite(square) && square <= gate && !once[r->measurement]) {
+      // Inside its gate, or the only witness of something (the rest leave free what it
+      // measures, so nothing can call it an outlier): it comes back.
+      const bool inside = std::isfinite(square) && square <= gate;
+      if ((inside || Unchecked(graph, set, *label, solution)) && !once[r->measurement]) {
         used.push_back(*label);
         once[r->measurement] = true;
         r = solution.rejected.erase(r);

@@ -585,6 +585,33 @@ components:
   CHECK(truth_among == 20);
 }
 
+TEST_CASE("solve: a measurement nothing else checks is never left out", "[interp]") {
+  // The hinged box's corners and one lid corner, that corner 0.3 m off: it is far from where the
+  // lid can be, but it is the only witness of the lid's angle. Left out, the angle would be
+  // anyone's guess and the rest would fit; it stays, and the solution is not accepted.
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  std::mt19937 rng(4);
+  const MeasurementSet all = Measure3d(g, g.nominal, rng, 0.001);
+  MeasurementSet set;
+  for (const MeasuredPoint& m : all.points) {
+    if (m.label.rfind("box.", 0) == 0 || m.label == "lid.l000") set.points.push_back(m);
+  }
+  set.points.back().xyz += Eigen::Vector3d(0.3, 0, 0);
+  SolveOptions options;
+  options.reject_outliers = true;
+  const Solution s = Solve(g, set, options);
+  CHECK(s.rejected.empty());
+  CHECK_FALSE(s.accepted());
+  // With a second lid corner the two check each other, and the far one is left out.
+  for (const MeasuredPoint& m : all.points) {
+    if (m.label == "lid.l100") set.points.push_back(m);
+  }
+  const Solution checked = Solve(g, set, options);
+  REQUIRE(checked.rejected.size() == 1);
+  CHECK(set.points[checked.rejected[0].measurement].label == "lid.l000");
+  CHECK(checked.accepted());
+}
+
 TEST_CASE("solve: what the measurements leave free is named", "[interp]") {
   // The hinged box measured on the box alone: the lid's angle is anyone's guess.
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
