@@ -47,7 +47,4 @@ class Lowerer {
   TextOrigin origin_;
 };
 
-// The closest of `candidates` to `name` by edit distance, if close enough to be a typo.
-std::string Suggest(std::string_view name, const std::vector<std::string>& candidates);
-
 }  // namespace cfuse::dsl

@@ -16,6 +16,7 @@
 #include "dsl/lower.h"
 #include "dsl/units.h"
 #include "dsl/yaml_document.h"
+#include "kernel/did_you_mean.h"
 
 namespace cfuse::dsl {
 namespace {

@@ -14,6 +14,7 @@
 
 #include "dsl/lower.h"
 #include "kernel/error.h"
+#include "kernel/did_you_mean.h"
 
 namespace cfuse::dsl {
 
