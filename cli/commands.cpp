@@ -365,7 +365,11 @@ int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err) {
     Values values = open;
     // A closed chain: the given joints held, the others moved until every equality holds.
     std::map<std::string, double> held;
-    for (const JointValue& v : given) held[v.name] = q.count(v.name) ? q.at(v.name) : v.value;
+    for (const JointValue& v : given) {
+      if (const int j = graph.FindJoint(v.name); j >= 0) {
+        held[graph.joints[j].name] = q.at(graph.joints[j].name);
+      }
+    }
     if (!CloseLoops(graph, held, ModelExtent(graph), false, &values)) {
       err << fmt::format("cfuse: the model's constraints cannot all hold at these joint values{}\n",
                          FarthestConstraint(graph, values));

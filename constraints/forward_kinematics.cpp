@@ -5,19 +5,22 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <set>
 
 #include "constraints/evaluate.h"
 #include "constraints/kinds/fix_pose.h"
 #include "constraints/kinds/joint_residual.h"
 #include "kernel/batch_solver.h"
+#include "kernel/did_you_mean.h"
 #include "kernel/evaluate.h"
 
 namespace cfuse {
 
 std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
                                                   const std::vector<JointValue>& values) {
-  std::map<std::string, double> given;
-  std::vector<const JointValue*> mimics;  // checked once the leaders are known
+  std::map<std::string, double> given;  // by the joints' names, whichever name a value used
+  std::vector<std::pair<const JointValue*, int>> mimics;  // checked once the leaders are known
+  std::set<std::string> seen;
   for (const JointValue& v : values) {
     // References, not a structured binding: clang before 16 cannot capture one in a lambda.
     const std::string& name = v.name;
@@ -26,17 +29,20 @@ std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
     if (!std::isfinite(value)) {
       throw InputError(where, fmt::format("joint '{}': the value is not finite", name));
     }
-    if (given.count(name) || std::any_of(mimics.begin(), mimics.end(),
-                                         [&](const JointValue* m) { return m->name == name; })) {
+    const int j = graph.FindJoint(name);
+    const MergedJoint* merged = j < 0 ? graph.FindMergedJoint(name) : nullptr;
+    if (j < 0 && !merged) {
+      std::vector<std::string> names;
+      for (const Joint& joint : graph.joints) {
+        if (HasJointVariable(joint.type)) names.push_back(joint.name);
+      }
+      throw InputError(where, fmt::format("'{}' is not a joint of model '{}'{}", name, graph.name,
+                                          DidYouMean(name, names)));
+    }
+    if (!seen.insert(j >= 0 ? graph.joints[j].name : merged->name).second) {
       throw InputError(where, fmt::format("joint '{}' is given twice", name));
     }
-    const int j = graph.FindJoint(name);
-    if (j < 0) {
-      const auto merged = std::find_if(graph.merged_joints.begin(), graph.merged_joints.end(),
-                                       [&](const MergedJoint& m) { return m.name == name; });
-      if (merged == graph.merged_joints.end()) {
-        throw InputError(where, fmt::format("'{}' is not a joint of model '{}'", name, graph.name));
-      }
+    if (merged) {
       // A merged joint cannot move: its own value (or none) only.
       if (!merged->locked_at) {
         throw InputError(where, fmt::format("joint '{}' is fixed and has no variable", name));
@@ -54,10 +60,10 @@ std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
                                           JointTypeName(joint.type)));
     }
     if (joint.mimic) {
-      mimics.push_back(&v);
+      mimics.emplace_back(&v, j);
       continue;
     }
-    given.emplace(name, value);
+    given.emplace(joint.name, value);
   }
   std::map<std::string, double> out;
   // A mimic's leader may itself mimic another (a chain the builder keeps acyclic).
@@ -76,10 +82,10 @@ std::map<std::string, double> CompleteJointValues(const ConstraintGraph& graph,
   }
   // A mimic joint's value may be given when it agrees with its leader's (as a full
   // configuration lists every joint).
-  for (const JointValue* m : mimics) {
-    const double expected = out.at(m->name);
+  for (const auto& [m, j] : mimics) {
+    const Joint& joint = graph.joints[j];
+    const double expected = out.at(joint.name);
     if (std::abs(m->value - expected) > 1e-9 * std::max(1.0, std::abs(expected))) {
-      const Joint& joint = graph.joints[graph.FindJoint(m->name)];
       throw InputError(
           m->where, fmt::format("joint '{}' mimics joint '{}': its value is {} "
                                 "times that one plus {}, {}, not {}",

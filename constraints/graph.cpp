@@ -69,24 +69,36 @@ int ConstraintGraph::num_equations() const {
   return m;
 }
 
+template <typename Item>
+static bool Named(const Item& item, std::string_view name) {
+  if constexpr (requires { item.alias; }) {
+    if (!item.alias.empty() && item.alias == name) return true;
+  }
+  return item.name == name;
+}
+
 template <typename Items>
 static int FindByName(const Items& items, std::string_view name) {
   for (size_t i = 0; i < items.size(); ++i) {
-    if (items[i].name == name) return static_cast<int>(i);
+    if (Named(items[i], name)) return static_cast<int>(i);
   }
   return -1;
 }
 
 int ConstraintGraph::FindComponent(std::string_view n) const { return FindByName(components, n); }
 int ConstraintGraph::FindJoint(std::string_view n) const { return FindByName(joints, n); }
+const MergedJoint* ConstraintGraph::FindMergedJoint(std::string_view n) const {
+  const int i = FindByName(merged_joints, n);
+  return i < 0 ? nullptr : &merged_joints[i];
+}
 int ConstraintGraph::FindConstraint(std::string_view n) const { return FindByName(constraints, n); }
 
 std::optional<std::pair<int, Rigid3d>> ConstraintGraph::FindFrame(std::string_view n) const {
   for (size_t c = 0; c < components.size(); ++c) {
     if (!components[c].rigid) continue;
-    if (components[c].name == n) return std::make_pair(static_cast<int>(c), Rigid3d());
+    if (Named(components[c], n)) return std::make_pair(static_cast<int>(c), Rigid3d());
     for (const ComponentFrame& f : components[c].frames) {
-      if (f.name == n) return std::make_pair(static_cast<int>(c), f.component_from_frame);
+      if (Named(f, n)) return std::make_pair(static_cast<int>(c), f.component_from_frame);
     }
   }
   return std::nullopt;

@@ -51,10 +51,13 @@ struct ComponentFrame {
   std::string name;
   Rigid3d component_from_frame;
   SourceLocation where;
+  // Another name look-ups accept: the model files' identifier for a name the source spells
+  // otherwise (a URDF's link 'arm-1' is 'arm_1' in a model that includes it), or "".
+  std::string alias;
 };
 
 struct Component {
-  std::string name;
+  std::string name;  // as the source file spells it
   bool rigid = false;  // rigid: 6-DOF pose block; otherwise one 3-DOF point block (§5)
   // A rigid component's nominal pose was given (or set by a joint); when not, a joint whose
   // child it is places it.
@@ -71,6 +74,9 @@ struct Component {
   std::unordered_map<std::string, int> point_index;
 
   int FindPoint(std::string_view point_name) const;  // -1 if absent
+  // Another name look-ups accept: the model files' identifier for a name the source spells
+  // otherwise (a URDF's link 'arm-1' is 'arm_1' in a model that includes it), or "".
+  std::string alias;
 };
 
 // URDF's joint types and the spherical joint. A floating joint constrains nothing; a planar one
@@ -112,6 +118,9 @@ struct Joint {
   int limit_constraint = -1;  // index of its limit constraint, or -1
   std::optional<JointMimic> mimic;
   SourceLocation where;
+  // Another name look-ups accept: the model files' identifier for a name the source spells
+  // otherwise (a URDF's link 'arm-1' is 'arm_1' in a model that includes it), or "".
+  std::string alias;
 };
 
 // A joint an importer merged away (URDF: fixed, or revolute/prismatic with lower = upper,
@@ -120,6 +129,9 @@ struct MergedJoint {
   std::string name;
   std::optional<double> locked_at;  // none: a fixed joint
   SourceLocation where;
+  // Another name look-ups accept: the model files' identifier for a name the source spells
+  // otherwise (a URDF's link 'arm-1' is 'arm_1' in a model that includes it), or "".
+  std::string alias;
 };
 
 struct Constraint {
@@ -146,8 +158,10 @@ struct ConstraintGraph {
 
   int tangent_dim() const;
   int num_equations() const;                       // sum of the constraints' dimensions
-  int FindComponent(std::string_view name) const;  // -1 if absent
+  // By name or alias; -1 if absent.
+  int FindComponent(std::string_view name) const;
   int FindJoint(std::string_view name) const;
+  const MergedJoint* FindMergedJoint(std::string_view name) const;  // nullptr if absent
   int FindConstraint(std::string_view name) const;
   // A component's frame, or a frame on a component: (component, component_from_frame); the
   // component's own name gives the identity. nullopt if neither.

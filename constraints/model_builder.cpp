@@ -105,8 +105,10 @@ const std::vector<std::pair<int, int>>& ModelBuilder::FindBarePoint(const std::s
 void ModelBuilder::IndexComponent(int component) {
   const Component& c = graph_.components[component];
   component_index_[c.name] = component;
+  if (!c.alias.empty()) component_index_[c.alias] = component;
   for (size_t f = 0; f < c.frames.size(); ++f) {
     frame_index_[c.frames[f].name] = {component, static_cast<int>(f)};
+    if (!c.frames[f].alias.empty()) frame_index_[c.frames[f].alias] = {component, static_cast<int>(f)};
   }
   if (!c.rigid) bare_points_[c.name].emplace_back(component, -1);
   for (size_t i = 0; i < c.points.size(); ++i) {
@@ -222,7 +224,7 @@ void ModelBuilder::AddFrame(int component, const std::string& name,
   RequireIdentifier(name, "frame", where);
   RequireUniqueComponent(name, where);
   Component& c = graph_.components[component];
-  c.frames.push_back({name, component_from_frame, where});
+  c.frames.push_back({name, component_from_frame, where, ""});
   c.frames.back().component_from_frame.rotation.normalize();
   frame_index_[name] = {component, static_cast<int>(c.frames.size()) - 1};
 }
@@ -417,7 +419,7 @@ void ModelBuilder::AddMergedJoint(const std::string& name, std::optional<double>
     throw InputError(where, fmt::format("duplicate joint name '{}'", name));
   }
   merged_joint_names_.insert(name);
-  graph_.merged_joints.push_back({name, locked_at, where});
+  graph_.merged_joints.push_back({name, locked_at, where, ""});
 }
 
 void ModelBuilder::AddMimic(int follower, int leader, double multiplier, double offset,
@@ -592,8 +594,12 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   }
   for (Component c : other.components) {
     c.name = prefix + c.name;
+    if (!c.alias.empty()) c.alias = prefix + c.alias;
     c.block += block0;
-    for (ComponentFrame& f : c.frames) f.name = prefix + f.name;
+    for (ComponentFrame& f : c.frames) {
+      f.name = prefix + f.name;
+      if (!f.alias.empty()) f.alias = prefix + f.alias;
+    }
     if (c.rigid && num_feature_points_ + static_cast<int>(c.points.size()) > kMaxFeaturePoints) {
       throw InputError(where, fmt::format("including '{}' makes the model larger than {} points",
                                           other.source, kMaxFeaturePoints));
@@ -611,6 +617,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   }
   for (MergedJoint m : other.merged_joints) {
     m.name = prefix + m.name;
+    if (!m.alias.empty()) m.alias = prefix + m.alias;
     if (FindJoint(m.name) >= 0 || !merged_joint_names_.insert(m.name).second) {
       throw InputError(where, fmt::format("including '{}' defines joint '{}'{} again", other.source,
                                           m.name, Located(m.where)));
@@ -619,6 +626,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
   }
   for (Joint j : other.joints) {
     j.name = prefix + j.name;
+    if (!j.alias.empty()) j.alias = prefix + j.alias;
     j.parent += component0;
     j.child += component0;
     if (j.constraint >= 0) j.constraint += constraint0;
@@ -628,6 +636,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
       j.mimic->constraint += constraint0;
     }
     joint_index_[j.name] = static_cast<int>(graph_.joints.size());
+    if (!j.alias.empty()) joint_index_[j.alias] = static_cast<int>(graph_.joints.size());
     graph_.joints.push_back(std::move(j));
   }
 }

@@ -4,6 +4,8 @@
 
 #include <set>
 
+#include "constraints/model_builder.h"
+
 namespace cfuse::dsl {
 namespace {
 
@@ -17,6 +19,13 @@ std::string PoseText(const Rigid3d& pose) {
   const Eigen::Quaterniond q = pose.rotation.normalized();
   return fmt::format("{{xyz: {}, quaternion: [{}, {}, {}, {}]}}", Vec(pose.translation), Num(q.w()),
                      Num(q.x()), Num(q.y()), Num(q.z()));
+}
+
+// The name a model file refers to an item by: an imported name that is no identifier (a URDF's
+// 'arm-1') has its identifier as alias.
+template <typename Item>
+const std::string& Ident(const Item& item) {
+  return ModelBuilder::IsIdentifier(item.name) || item.alias.empty() ? item.name : item.alias;
 }
 
 }  // namespace
@@ -63,7 +72,7 @@ std::string WriteModel(const ConstraintGraph& graph) {
     out += "components:\n";
     for (const Component& c : graph.components) {
       if (!c.rigid) continue;
-      out += fmt::format("  {}:\n", c.name);
+      out += fmt::format("  {}:\n", Ident(c));
       if (c.pose_given) {
         out += fmt::format("    pose: {}\n",
                            PoseText(graph.nominal.poses[graph.blocks[c.block].index]));
@@ -71,7 +80,7 @@ std::string WriteModel(const ConstraintGraph& graph) {
       if (!c.frames.empty()) {
         out += "    frames:\n";
         for (const ComponentFrame& f : c.frames) {
-          out += fmt::format("      {}: {}\n", f.name, PoseText(f.component_from_frame));
+          out += fmt::format("      {}: {}\n", Ident(f), PoseText(f.component_from_frame));
         }
       }
       if (c.points.empty()) {
@@ -103,7 +112,7 @@ std::string WriteModel(const ConstraintGraph& graph) {
     out += "points:\n";
     for (const Component& c : graph.components) {
       if (!c.rigid) {
-        out += fmt::format("  {}: {}\n", c.name,
+        out += fmt::format("  {}: {}\n", Ident(c),
                            Vec(graph.nominal.points[graph.blocks[c.block].index]));
       }
     }
@@ -111,10 +120,10 @@ std::string WriteModel(const ConstraintGraph& graph) {
   if (!graph.joints.empty()) {
     out += "joints:\n";
     for (const Joint& j : graph.joints) {
-      out += fmt::format("  {}:\n", j.name);
+      out += fmt::format("  {}:\n", Ident(j));
       out += fmt::format("    type: {}\n", JointTypeName(j.type));
-      out += fmt::format("    parent: {}\n", graph.components[j.parent].name);
-      out += fmt::format("    child: {}\n", graph.components[j.child].name);
+      out += fmt::format("    parent: {}\n", Ident(graph.components[j.parent]));
+      out += fmt::format("    child: {}\n", Ident(graph.components[j.child]));
       out += fmt::format("    origin: {}\n", PoseText(j.parent_from_joint));
       if (HasJointVariable(j.type) || j.type == JointType::kPlanar) {
         out += fmt::format("    axis: {}\n", Vec(j.axis));
@@ -127,7 +136,7 @@ std::string WriteModel(const ConstraintGraph& graph) {
       }
       if (j.mimic) {
         out += fmt::format("    mimic: {{joint: {}, multiplier: {}, offset: {}}}\n",
-                           graph.joints[j.mimic->leader].name, Num(j.mimic->multiplier),
+                           Ident(graph.joints[j.mimic->leader]), Num(j.mimic->multiplier),
                            Num(j.mimic->offset));
       }
     }

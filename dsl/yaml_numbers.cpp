@@ -9,6 +9,11 @@ namespace cfuse::dsl {
 double Number(const Document& doc, const YAML::Node& node, const std::string& what) {
   if (!node.IsScalar()) doc.Fail(node, fmt::format("{} must be a number", what));
   const std::string& s = node.Scalar();
+  // A quoted scalar is a string in YAML and JSON alike: "0.5" is not taken for 0.5, which would
+  // hide a file written by a program that meant something else.
+  if (node.Tag() == "!") {
+    doc.Fail(node, fmt::format("{} must be a number, got the string \"{}\"", what, s));
+  }
   char* end = nullptr;
   errno = 0;
   double v = std::strtod(s.c_str(), &end);

@@ -5,7 +5,9 @@
 #include <tinyxml.h>
 #include <urdf_parser/urdf_parser.h>
 
+#include <algorithm>
 #include <array>
+#include <cctype>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -447,7 +449,42 @@ class UrdfReader {
       builder.AddMimic(follower, lead, uj->mimic ? uj->mimic->multiplier : 1.0,
                        uj->mimic ? uj->mimic->offset : 0.0, Loc(j.mimic_element, element));
     }
-    return std::move(builder).Build();
+    ConstraintGraph graph = std::move(builder).Build();
+    Respell(&graph);
+    return graph;
+  }
+
+  // Links and joints go by the URDF's own names in results and look-ups; the identifiers they
+  // were built under (which model files need, to refer to them) stay as aliases. A name that
+  // would break a CSV column or a `name=value` list keeps its identifier, the URDF's spelling
+  // then the alias.
+  void Respell(ConstraintGraph* graph) const {
+    std::map<std::string, std::string> spelling;  // identifier -> URDF name
+    for (const TiXmlElement* link : links_) {
+      const std::string name = link->Attribute("name");
+      spelling.emplace(Identifier(name), name);
+    }
+    for (const XmlJoint& j : joints_) spelling.emplace(Identifier(j.name), j.name);
+    auto respell = [&](auto& item) {
+      const auto it = spelling.find(item.name);
+      if (it == spelling.end() || it->second == item.name) return;
+      const bool plain = std::none_of(it->second.begin(), it->second.end(), [](char c) {
+        return std::isspace(static_cast<unsigned char>(c)) || std::iscntrl(static_cast<unsigned char>(c)) ||
+               c == ',' || c == '"' || c == '=';
+      });
+      if (plain) {
+        item.alias = item.name;
+        item.name = it->second;
+      } else {
+        item.alias = it->second;
+      }
+    };
+    for (Component& c : graph->components) {
+      respell(c);
+      for (ComponentFrame& f : c.frames) respell(f);
+    }
+    for (Joint& j : graph->joints) respell(j);
+    for (MergedJoint& m : graph->merged_joints) respell(m);
   }
 
   // The link's points from its visual and collision geometry (see urdf.h), in the component's

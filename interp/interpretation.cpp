@@ -1746,6 +1746,8 @@ std::vector<std::array<int, 3>> PlanCache::Triangles(
 Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set,
                          const InterpretOptions& options) {
   RequireEstimable(graph);
+  // Labels do not steer the search, but a label naming no model point is a mistake in the file.
+  ResolveLabels(graph, set);
   if (set.points.size() > static_cast<size_t>(kMaxInterpretedPoints)) {
     throw InputError(SourceLocation(set.source),
                      fmt::format("{} measurements: interpretation takes at most {} (its time and "

@@ -14,6 +14,7 @@
 #include "interp/joint_estimates.h"
 #include "interp/schedule.h"
 #include "kernel/chi_square.h"
+#include "kernel/did_you_mean.h"
 #include "kernel/evaluate.h"
 #include "kernel/fusion_order.h"
 #include "kernel/measurements/image_point.h"
@@ -178,12 +179,20 @@ void ApplyGuess(const ConstraintGraph& graph, const PoseSet& guess, Values* valu
   for (const NamedPose& p : guess.components) {
     if (graph.FindComponent(p.name) >= 0) continue;
     const auto frame = graph.FindFrame(p.name);
-    if (!frame) throw InputError(p.where, fmt::format("unknown component '{}'", p.name));
+    if (!frame) {
+      std::vector<std::string> names;
+      for (const Component& comp : graph.components) {
+        names.push_back(comp.name);
+        for (const ComponentFrame& f : comp.frames) names.push_back(f.name);
+      }
+      throw InputError(p.where,
+                       fmt::format("unknown component '{}'{}", p.name, DidYouMean(p.name, names)));
+    }
     const int c = frame->first;  // not a structured binding: captured below (clang < 16)
     const Rigid3d& component_from_frame = frame->second;
     const bool given =
         std::any_of(guess.components.begin(), guess.components.end(),
-                    [&](const NamedPose& q) { return q.name == graph.components[c].name; });
+                    [&](const NamedPose& q) { return graph.FindComponent(q.name) == c; });
     if (!given) PoseOf(graph, *values, c) = p.pose * component_from_frame.Inverse();
   }
   for (const NamedPose& p : guess.components) {
@@ -290,22 +299,47 @@ bool PlacePoint(const ConstraintGraph& g, const std::vector<int>& list, int bloc
   return true;
 }
 
+// Every label a measurement could carry, for "did you mean": component.point, bare point
+// names and single-point components.
+static std::vector<std::string> KnownLabels(const ConstraintGraph& graph) {
+  std::vector<std::string> known;
+  for (const Component& comp : graph.components) {
+    if (!comp.rigid) known.push_back(comp.name);
+    if (!comp.rigid) continue;
+    for (const FeaturePoint& p : comp.points) {
+      known.push_back(comp.name + "." + p.name);
+      known.push_back(p.name);
+    }
+  }
+  return known;
+}
+
 std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const MeasurementSet& set) {
   std::vector<ResolvedLabel> labels;
+  auto unknown = [&](const MeasuredPoint& m) {
+    return InputError(m.where, fmt::format("unknown label '{}': no such model point{}", m.label,
+                                           DidYouMean(m.label, KnownLabels(graph))));
+  };
   for (size_t i = 0; i < set.points.size(); ++i) {
     const MeasuredPoint& m = set.points[i];
     if (m.label.empty()) continue;
     ResolvedLabel r;
     r.measurement = static_cast<int>(i);
-    const size_t dot = m.label.find('.');
-    if (dot != std::string::npos) {
-      r.component = graph.FindComponent(m.label.substr(0, dot));
-      if (r.component >= 0 && graph.components[r.component].rigid) {
-        r.feature = graph.components[r.component].FindPoint(m.label.substr(dot + 1));
+    if (m.label.find('.') != std::string::npos) {
+      // component.point, split at whichever dot names a model point: a URDF link's own name
+      // may hold dots.
+      r.component = -1;
+      for (size_t dot = m.label.find('.'); dot != std::string::npos && r.component < 0;
+           dot = m.label.find('.', dot + 1)) {
+        const int c = graph.FindComponent(std::string_view(m.label).substr(0, dot));
+        if (c < 0 || !graph.components[c].rigid) continue;
+        const int f = graph.components[c].FindPoint(std::string_view(m.label).substr(dot + 1));
+        if (f >= 0) {
+          r.component = c;
+          r.feature = f;
+        }
       }
-      if (r.component < 0 || r.feature < 0) {
-        throw InputError(m.where, fmt::format("unknown label '{}': no such model point", m.label));
-      }
+      if (r.component < 0) throw unknown(m);
     } else {
       int matches = 0;
       for (size_t c = 0; c < graph.components.size(); ++c) {
@@ -322,9 +356,7 @@ std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const Mea
           ++matches;
         }
       }
-      if (matches == 0) {
-        throw InputError(m.where, fmt::format("unknown label '{}': no such model point", m.label));
-      }
+      if (matches == 0) throw unknown(m);
       if (matches > 1) {
         throw InputError(m.where,
                          fmt::format("label '{}' is ambiguous: write component.point", m.label));

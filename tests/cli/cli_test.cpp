@@ -6,7 +6,12 @@
 #include <nlohmann/json.hpp>
 #include <sstream>
 
+#include <fmt/format.h>
+
+#include "cli/command_support.h"
 #include "cli/commands.h"
+#include "dsl/measurement_reader.h"
+#include "interp/solve.h"
 #include "test_util.h"
 
 namespace cfuse::cli {
@@ -161,6 +166,70 @@ TEST_CASE("cli: fk writes every link's pose for the joint values", "[cli]") {
   CHECK(err3.str().find("q.json:1:14: error: joint 'shoulder' must be a number") !=
         std::string::npos);
   CHECK(out3.str().empty());
+  // A quoted number is a string: refused, not read as the number.
+  std::ofstream(joints) << "{\"shoulder\": \"0.5\"}\n";
+  std::ostringstream out4, err4;
+  CHECK(RunFk({urdf, joints.string(), ""}, out4, err4) == 2);
+  CHECK(err4.str().find("q.json:1:14: error: joint 'shoulder' must be a number, got the string "
+                        "\"0.5\"") != std::string::npos);
+}
+
+// A URDF's names that model files could not write ('base-link', 'arm.1') stay as the URDF spells
+// them in fk's input and output and in measurement labels; the identifier model files use
+// ('base_link') is accepted too, and `import` writes that one.
+TEST_CASE("cli: a URDF's own link and joint names work as written", "[cli]") {
+  const fs::path dir = fs::temp_directory_path() / "cfuse_cli_test";
+  fs::create_directories(dir);
+  const fs::path urdf = dir / "spelled.urdf", joints = dir / "q_spelled.json",
+                 poses = dir / "poses_spelled.json";
+  std::ofstream(urdf) << R"(<robot name="spelled">
+  <link name="base-link"/>
+  <link name="arm.1"/>
+  <link name="tool tip"/>
+  <joint name="joint-1" type="revolute"><parent link="base-link"/><child link="arm.1"/>
+    <origin xyz="0 0 0.1"/><axis xyz="0 0 1"/><limit lower="-1" upper="1" effort="1" velocity="1"/>
+  </joint>
+  <joint name="tip joint" type="fixed"><parent link="arm.1"/><child link="tool tip"/>
+    <origin xyz="0.2 0 0"/></joint>
+</robot>
+)";
+  for (const char* name : {"joint-1", "joint_1"}) {
+    INFO(name);
+    std::ofstream(joints) << fmt::format("{{\"{}\": 0.5}}\n", name);
+    std::ostringstream out, err;
+    REQUIRE(RunFk({urdf.string(), joints.string(), poses.string()}, out, err) == 0);
+    std::ifstream in(poses);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    CHECK(j["joints"]["joint-1"]["value"] == 0.5);
+    CHECK(j["components"].contains("base-link"));
+    CHECK(j["components"].contains("arm.1"));
+    // A name with a space would break a CSV column or a name=value list: its identifier.
+    CHECK(j["components"].contains("tool_tip"));
+    const auto& xyz = j["components"]["tool_tip"]["position"];
+    CHECK(std::abs(xyz[0].get<double>() - 0.2 * std::cos(0.5)) < 1e-12);
+  }
+  const ConstraintGraph g = LoadAnyModel(urdf.string());
+  CHECK(g.FindComponent("base_link") == g.FindComponent("base-link"));
+  CHECK(g.FindFrame("tool tip"));
+  const MeasurementSet set = dsl::ReadMeasurementsFromString(
+      "points:\n  - {xyz: [0, 0, 0.1], sigma: 0.001, label: arm.1.origin}\n"
+      "  - {xyz: [0, 0, 0.1], sigma: 0.001, label: arm_1.origin}\n",
+      "meas.yaml");
+  const std::vector<ResolvedLabel> labels = ResolveLabels(g, set);
+  REQUIRE(labels.size() == 2);
+  CHECK(labels[0].component == g.FindComponent("arm.1"));
+  CHECK(labels[1].component == g.FindComponent("arm.1"));
+  std::ofstream(joints) << "{\"joint-1\": 0.5, \"joint_1\": 0.5}\n";
+  std::ostringstream out, err;
+  CHECK(RunFk({urdf.string(), joints.string(), ""}, out, err) == 2);
+  CHECK(err.str().find("joint 'joint_1' is given twice") != std::string::npos);
+  // `import` writes identifiers, which a model file can refer to.
+  const fs::path model = dir / "spelled.yaml";
+  std::ostringstream out2, err2;
+  REQUIRE(RunImport({urdf.string(), model.string()}, out2, err2) == 0);
+  const ConstraintGraph back = LoadAnyModel(model.string());
+  CHECK(back.FindComponent("base_link") >= 0);
+  CHECK(back.FindJoint("joint_1") >= 0);
 }
 
 TEST_CASE("cli: graph writes dot, atomically", "[cli]") {

@@ -9,6 +9,7 @@
 #include "constraints/dof.h"
 #include "dsl/measurement_reader.h"
 #include "dsl/model_loader.h"
+#include "interp/interpretation.h"
 #include "interp/joint_estimates.h"
 #include "interp/simulate.h"
 #include "kernel/chi_square.h"
@@ -343,6 +344,14 @@ TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "
     CHECK(std::string(e.what()) ==
           "meas.yaml:3:5: points[1]: error: unknown label 'box.c999': no such model point");
   }
+  // A typo gets the closest label; interpret refuses it as well, though labels do not steer it.
+  const MeasurementSet typo = dsl::ReadMeasurementsFromString(
+      "points:\n  - {xyz: [0, 0, 1], sigma: 0.01, label: bx.c010}\n", "meas.yaml");
+  const std::string expected =
+      "meas.yaml:2:5: points[0]: error: unknown label 'bx.c010': no such model point (did you "
+      "mean 'box.c010'?)";
+  CHECK_THROWS_WITH(Solve(g, typo), expected);
+  CHECK_THROWS_WITH(Interpret(g, typo), expected);
 }
 
 }  // namespace
