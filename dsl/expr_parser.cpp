@@ -256,6 +256,13 @@ class Parser {
       c.rhs = ParseExpr();
     }
     const Token& after = Peek();
+    // "1.2 in" meant as inches reads as a second relation 'in' with no range after it.
+    if (after.kind == Tok::kIn && pos_ + 1 < tokens_.size() &&
+        tokens_[pos_ + 1].kind != Tok::kLBracket) {
+      throw ExprSyntaxError(after.offset,
+                            "'in' is not a unit: the units are m, cm, mm, rad and deg (no inches); "
+                            "'in' is the range relation, as in 'x in [lo, hi]'");
+    }
     if (IsRelation(after.kind)) {
       throw ExprSyntaxError(
           after.offset, "a constraint has only one relation, found a second " + Describe(after));

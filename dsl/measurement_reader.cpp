@@ -75,7 +75,11 @@ Camera ReadCamera(const Document& doc, const YAML::Node& node) {
   if (pinhole) {
     camera.fx = *get("fx", true);
     camera.fy = *get("fy", true);
-    if (!(camera.fx > 0) || !(camera.fy > 0)) doc.Fail(node, "camera fx and fy must be positive");
+    for (const char* key : {"fx", "fy"}) {
+      if (!(*(key[1] == 'x' ? &camera.fx : &camera.fy) > 0)) {
+        doc.Fail(Document::Find(entries, key), "camera fx and fy must be positive");
+      }
+    }
   } else {
     camera.scale = *get("scale", true);
     if (!(camera.scale > 0)) doc.Fail(node["scale"], "camera scale must be positive");

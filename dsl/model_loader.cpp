@@ -404,6 +404,14 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
       const double hi = Quantity1(doc, n[1], q, "upper limit");
       if (!(lo < hi))
         doc.Fail(n, fmt::format("{}: the lower limit is not below the upper limit", what));
+      // [-90, 90] in a file whose angles are radians: degrees meant. Two turns either way is
+      // beyond any revolute joint's travel (a joint that turns freely is continuous).
+      if (spec.type == JointType::kRevolute && std::max(std::abs(lo), std::abs(hi)) > 4 * M_PI) {
+        doc.Fail(n, fmt::format("{}: limits [{:g}, {:g}] rad are more than two turns from zero: "
+                                "degrees meant? write them with 'deg' or declare units: {{angle: "
+                                "deg}} (a joint that turns freely is continuous)",
+                                what, lo, hi));
+      }
       spec.limits = std::make_pair(lo, hi);
     }
     if (YAML::Node n = Document::Find(entries, "position"); Present(n)) {

@@ -2,11 +2,14 @@
 
 #include <yaml-cpp/eventhandler.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <sstream>
+#include <vector>
 
 namespace cfuse::dsl {
 
@@ -94,6 +97,60 @@ class DocumentStarts : public YAML::EventHandler {
   bool first_ = false;
 };
 
+// yaml-cpp stops where its parser gives up, often a line or two after the mistake. Two
+// mistakes it reports so: a tab in the indentation, and a key missing its ':'. The line that
+// shows one, at or before `error_line` (0-based), as (line, column, message), 1-based.
+struct Cause {
+  int line, column;
+  std::string message;
+};
+
+std::optional<Cause> LikelyCause(const std::string& text, int error_line) {
+  std::vector<std::string> lines;
+  std::istringstream in(text);
+  for (std::string line; std::getline(in, line);) {
+    if (!line.empty() && line.back() == '\r') line.pop_back();
+    lines.push_back(line);
+  }
+  const int last = std::min(error_line, static_cast<int>(lines.size()) - 1);
+  auto indent = [&](int i) { return static_cast<int>(lines[i].find_first_not_of(" \t")); };
+  auto blank = [&](int i) {
+    const size_t k = lines[i].find_first_not_of(" \t");
+    return k == std::string::npos || lines[i][k] == '#';
+  };
+  for (int i = 0; i <= last; ++i) {
+    if (blank(i)) continue;
+    const size_t tab = lines[i].find('\t');
+    if (tab != std::string::npos && static_cast<int>(tab) < indent(i)) {
+      return Cause{i + 1, static_cast<int>(tab) + 1,
+                   "a tab in the indentation: YAML indents with spaces only"};
+    }
+  }
+  auto is_key = [&](int i) {
+    const std::string& l = lines[i];
+    const size_t colon = l.find(':');
+    return colon != std::string::npos && (colon + 1 == l.size() || l[colon + 1] == ' ');
+  };
+  for (int i = std::max(0, last - 2); i <= last; ++i) {
+    if (blank(i) || is_key(i)) continue;
+    const char first = lines[i][indent(i)];
+    if (first == '-' || first == '[' || first == '{' || first == '"' || first == '\'' ||
+        first == ']' || first == '}') {
+      continue;
+    }
+    // In a block mapping: the next line at this indentation is a key.
+    int next = i + 1;
+    while (next < static_cast<int>(lines.size()) && blank(next)) ++next;
+    if (next >= static_cast<int>(lines.size()) || indent(next) != indent(i) || !is_key(next)) {
+      continue;
+    }
+    return Cause{i + 1, indent(i) + 1,
+                 fmt::format("'{}' is not 'key: value': is a ':' missing?",
+                             lines[i].substr(indent(i)))};
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 YAML::Node Document::Parse() const {
@@ -131,6 +188,11 @@ YAML::Node Document::Parse() const {
     // yaml-cpp's own message for this is "bad file".
     throw syntax_error(e.mark, fmt::format("nested more than {} levels deep", e.depth() - 1));
   } catch (const YAML::ParserException& e) {
+    if (const auto cause = LikelyCause(text_, e.mark.line)) {
+      throw InputError(SourceLocation(file_, cause->line, cause->column),
+                       fmt::format("YAML syntax error: {} (yaml-cpp: {} at line {})",
+                                   cause->message, e.msg, e.mark.line + 1));
+    }
     throw syntax_error(e.mark, e.msg);
   }
 }

@@ -9,6 +9,7 @@
 #include <Eigen/Geometry>
 #include <algorithm>
 #include <cmath>
+#include <map>
 
 #include "interp/closed_form_pose.h"
 #include "interp/joint_estimates.h"
@@ -314,6 +315,45 @@ static std::vector<std::string> KnownLabels(const ConstraintGraph& graph) {
   return known;
 }
 
+// Labelled 3D points in other units than the model's (millimetres read as metres) would end in
+// thousands of sigmas and outliers; said at the file instead. The measure: the median, over
+// pairs of labelled points on one rigid component, of their measured over their model distance.
+static void RequireModelScale(const ConstraintGraph& graph, const MeasurementSet& set,
+                              const std::vector<ResolvedLabel>& labels) {
+  std::map<int, std::vector<const ResolvedLabel*>> by_component;
+  for (const ResolvedLabel& l : labels) {
+    if (l.feature >= 0 && set.points[l.measurement].is_3d) by_component[l.component].push_back(&l);
+  }
+  std::vector<double> ratios;
+  for (const auto& [c, on] : by_component) {
+    const Component& comp = graph.components[c];
+    for (size_t i = 0; i + 1 < on.size() && ratios.size() < 10000; ++i) {
+      for (size_t j = i + 1; j < on.size() && j < i + 8; ++j) {
+        const double model = (comp.points[on[i]->feature].position -
+                              comp.points[on[j]->feature].position).norm();
+        const MeasuredPoint& a = set.points[on[i]->measurement];
+        const MeasuredPoint& b = set.points[on[j]->measurement];
+        const double noise = std::sqrt(a.cov3.trace() + b.cov3.trace());
+        const double measured = (a.xyz - b.xyz).norm();
+        if (measured > 10 * noise && model > 0) ratios.push_back(measured / model);
+      }
+    }
+  }
+  if (ratios.size() < 3) return;
+  std::nth_element(ratios.begin(), ratios.begin() + ratios.size() / 2, ratios.end());
+  const double ratio = ratios[ratios.size() / 2];
+  if (ratio < 20 && ratio > 1.0 / 20) return;
+  const char* guess = ratio > 500 && ratio < 2000   ? ": millimetres? measurement files take metres"
+                      : ratio > 50 && ratio < 200   ? ": centimetres? measurement files take metres"
+                      : ratio > 20 && ratio < 50    ? ": inches? measurement files take metres"
+                                                    : "";
+  const double step = std::pow(10.0, std::floor(std::log10(ratio)) - 1);  // two digits shown
+  throw InputError(SourceLocation(set.source),
+                   fmt::format("the labelled points are about {:g} times as far apart as the "
+                               "model points they name (median over {} pairs){}",
+                               std::round(ratio / step) * step, ratios.size(), guess));
+}
+
 std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const MeasurementSet& set) {
   std::vector<ResolvedLabel> labels;
   auto unknown = [&](const MeasuredPoint& m) {
@@ -364,6 +404,7 @@ std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const Mea
     }
     labels.push_back(r);
   }
+  RequireModelScale(graph, set, labels);
   return labels;
 }
 

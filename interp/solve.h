@@ -116,7 +116,9 @@ struct Solution {
 inline constexpr int kMaxStateDim = 12000;
 void RequireEstimable(const ConstraintGraph& graph);
 
-// Resolves every label; an unknown or ambiguous label is an InputError at the measurement.
+// Resolves every label; an unknown or ambiguous label is an InputError at the measurement
+// (with the closest known label), and so are labelled 3D points in other units than the
+// model's: farther apart than the points they name by a factor of 20 or more.
 std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const MeasurementSet& set);
 
 // The model's extent: the largest distance of a nominal point from their centroid (>= 1 mm).

@@ -86,6 +86,11 @@ void CheckError(const std::string& path, const std::string& error_file, int line
 const BadCase kCases[] = {
   // YAML syntax and shape.
   {"yaml_bad_indent.yaml", nullptr, 5, 4, "YAML syntax error: end of map not found"},
+  {"yaml_missing_colon.yaml", nullptr, 4, 3,
+   "YAML syntax error: 'a [0, 0, 0]' is not 'key: value': is a ':' missing? (yaml-cpp: illegal "
+   "map value at line 5)"},
+  {"yaml_tab_indent.yaml", nullptr, 4, 1,
+   "YAML syntax error: a tab in the indentation: YAML indents with spaces only"},
   {"yaml_unclosed_bracket.yaml", nullptr, 5, 4, "YAML syntax error: end of sequence flow not found"},
   // yaml-cpp 0.7 loops forever on these (found by fuzz/model_dsl_fuzz.cpp).
   {"yaml_stray_comma.yaml", nullptr, 2, 7, "YAML syntax error: unexpected ','"},
@@ -132,9 +137,14 @@ const BadCase kCases[] = {
    "unit mismatch: the left-hand side is in [m] but the right-hand side is in [rad]"},
   {"unit_length_plus_angle.yaml", nullptr, 7, 20, "unit mismatch: [m] + [rad]"},
   {"unit_unknown.yaml", nullptr, 6, 26, "unknown unit 'furlongs' (units: m, cm, mm, rad, deg)"},
+  {"unit_inches.yaml", nullptr, 7, 27,
+   "syntax error in constraint: 'in' is not a unit: the units are m, cm, mm, rad and deg (no "
+   "inches)"},
   {"unit_missing.yaml", nullptr, 6, 23,
    "the right-hand side is in [1]; a number without a unit is dimensionless, write e.g. '0.3 m'"},
   {"unit_wrong_kind.yaml", nullptr, 2, 17, "'deg' is not a unit of length"},
+  {"joint_limits_degrees_in_radians.yaml", nullptr, 11, 13,
+   "joint 'elbow': limits [-90, 90] rad are more than two turns from zero: degrees meant?"},
   {"joint_limit_name.yaml", nullptr, 11, 14,
    "invalid lower limit: expected a number with a unit, e.g. '90 deg', found 'lo'"},
   // Expression syntax and misuse.

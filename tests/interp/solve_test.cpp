@@ -354,6 +354,23 @@ TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "
   CHECK_THROWS_WITH(Interpret(g, typo), expected);
 }
 
+TEST_CASE("solve: measurements in millimetres are refused at the file, with the likely unit",
+          "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  std::mt19937 rng(2);
+  MeasurementSet set = Measure3d(g, g.nominal, rng, 0.002);
+  set.source = "mm.json";
+  CHECK(Solve(g, set).accepted());
+  for (MeasuredPoint& m : set.points) {
+    m.xyz *= 1000;
+    m.cov3 *= 1e6;
+  }
+  CHECK_THROWS_WITH(Solve(g, set),
+                    Catch::Matches("mm\\.json: error: the labelled points are about 1000 times "
+                                   "as far apart as the model points they name \\(median over [0-9]+ "
+                                   "pairs\\): millimetres\\? measurement files take metres"));
+}
+
 }  // namespace
 }  // namespace cfuse
 
