@@ -67,6 +67,18 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
     }
   }
   s.dof = AnalyzeDof(graph, graph.nominal);
+  for (Violation& v : s.violations) {
+    const bool redundant = std::any_of(s.dof.redundant.begin(), s.dof.redundant.end(),
+                                       [&](const auto& r) { return r.first == v.constraint; });
+    if (!redundant) continue;
+    v.repeats_hold = true;
+    for (int k : ImplyingConstraints(graph, graph.nominal, graph.FindConstraint(v.constraint))) {
+      const Constraint& c = graph.constraints[k];
+      v.repeats.emplace_back(c.name, graph.Describe(c));
+      v.repeats_hold &= std::none_of(s.violations.begin(), s.violations.end(),
+                                     [&](const Violation& w) { return w.constraint == c.name; });
+    }
+  }
   const long locked = std::count_if(graph.merged_joints.begin(), graph.merged_joints.end(),
                                     [](const MergedJoint& m) { return m.locked_at.has_value(); });
   if (locked > 0 && s.dof.computed) {
@@ -132,10 +144,20 @@ void PrintSummary(const ConstraintGraph& graph, const ModelSummary& s, std::ostr
            "computed away from the model's constraint surface and may be wrong\n";
   }
   for (const Violation& v : s.violations) {
+    std::string repeats;
+    for (const auto& [name, formula] : v.repeats) {
+      repeats += fmt::format("{}'{}' ({})", repeats.empty() ? "" : ", ", name, formula);
+    }
     out << fmt::format(
         "{}: warning: constraint '{}' ({}) is violated by the nominal geometry "
-        "(largest residual {:.3g})\n",
-        v.where.ToString(), v.constraint, v.formula, v.residual);
+        "(largest residual {:.3g}){}\n",
+        v.where.ToString(), v.constraint, v.formula, v.residual,
+        repeats.empty() ? ""
+        : v.repeats_hold
+            ? fmt::format("; it restates what {} fix{}, which hold{} there: they contradict "
+                          "each other",
+                          repeats, v.repeats.size() == 1 ? "es" : "", v.repeats.size() == 1 ? "s" : "")
+            : fmt::format("; it restates what {} fix{}", repeats, v.repeats.size() == 1 ? "es" : ""));
   }
 }
 
@@ -173,7 +195,11 @@ nlohmann::json SummaryJson(const ConstraintGraph& graph, const ModelSummary& s) 
     j["violations"].push_back({{"constraint", v.constraint},
                                {"formula", v.formula},
                                {"residual", v.residual},
-                               {"where", v.where.ToString()}});
+                               {"where", v.where.ToString()},
+                               {"repeats", nlohmann::json::array()}});
+    for (const auto& [name, formula] : v.repeats) {
+      j["violations"].back()["repeats"].push_back(name);
+    }
   }
   j["warnings"] = nlohmann::json::array();
   for (const auto& [where, message] : s.warnings) {

@@ -1,6 +1,8 @@
 #include "constraints/dof.h"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
+#include <algorithm>
 
 #include "constraints/evaluate.h"
 
@@ -68,6 +70,39 @@ std::vector<std::vector<int>> RowsAddingRank(const ConstraintGraph& graph,
 std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at) {
   if (graph.tangent_dim() > kMaxDofStateDim) return {};
   return RowsAddingRank(graph, SlackedJacobian(graph, at));
+}
+
+std::vector<int> ImplyingConstraints(const ConstraintGraph& graph, const Values& at,
+                                     int constraint) {
+  if (graph.tangent_dim() > kMaxDofStateDim) return {};
+  const Eigen::MatrixXd J = SlackedJacobian(graph, at);
+  const std::vector<std::vector<int>> kept = RowsAddingRank(graph, J);
+  std::vector<int> first_row(graph.constraints.size() + 1, 0);
+  for (size_t k = 0; k < graph.constraints.size(); ++k) {
+    first_row[k + 1] = first_row[k] + graph.constraints[k].residual->dimension();
+  }
+  const int before = first_row[constraint];
+  if (before == 0) return {};
+  // Each repeated row as a combination of the rows before it (least squares, minimum norm).
+  const Eigen::MatrixXd A = J.topRows(before).transpose();
+  const Eigen::CompleteOrthogonalDecomposition<Eigen::MatrixXd> cod(A);
+  std::vector<double> weight(graph.constraints.size(), 0.0);
+  const std::vector<int>& adding = kept[constraint];
+  for (int i = 0; i < graph.constraints[constraint].residual->dimension(); ++i) {
+    if (std::find(adding.begin(), adding.end(), i) != adding.end()) continue;
+    const Eigen::VectorXd row = J.row(first_row[constraint] + i).transpose();
+    const Eigen::VectorXd x = cod.solve(row);
+    for (int k = 0; k < constraint; ++k) {
+      for (int r = first_row[k]; r < first_row[k + 1]; ++r) {
+        weight[k] = std::max(weight[k], std::abs(x[r]) * J.row(r).norm() / row.norm());
+      }
+    }
+  }
+  std::vector<int> out;
+  for (int k = 0; k < constraint; ++k) {
+    if (weight[k] > 1e-6) out.push_back(k);
+  }
+  return out;
 }
 
 DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at) {

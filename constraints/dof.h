@@ -47,6 +47,12 @@ DofReport AnalyzeDof(const ConstraintGraph& graph, const Values& at);
 // above). Empty when the state is beyond kMaxDofStateDim.
 std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at);
 
+// The constraints before `constraint` whose rows combine into its rows that add no rank at
+// `at`: what it repeats (and contradicts, if it does not hold where they do). Empty if every
+// row adds rank, or beyond kMaxDofStateDim.
+std::vector<int> ImplyingConstraints(const ConstraintGraph& graph, const Values& at,
+                                     int constraint);
+
 // Numerical rank by SVD with threshold kRankTolerance * max(1, σ_max).
 int NumericalRank(const Eigen::MatrixXd& A);
 

@@ -597,7 +597,16 @@ void Loader::ReadConstraints(const Document& doc, const YAML::Node& node) {
     if (!expr.IsScalar()) {
       doc.Fail(expr, "a constraint is an expression string, e.g. 'distance(a, b) == 30 mm'");
     }
-    if (name.empty()) name = builder_->UniqueConstraintName(fmt::format("c{}", index));
+    if (name.empty()) {
+      // cN, unless a point or component has that name (a box's corners c000..c111, a lamp's
+      // c1): messages would then name two different things alike.
+      std::string automatic = fmt::format("c{}", index);
+      if (builder_->FindComponent(automatic) >= 0 || !builder_->FindBarePoint(automatic).empty() ||
+          builder_->FindFrame(automatic)) {
+        automatic = fmt::format("constraint_{}", index);
+      }
+      name = builder_->UniqueConstraintName(automatic);
+    }
     const Lowerer lower(*builder_, doc.Origin(expr));
     lower.AddConstraint(builder_.get(), expr.Scalar(), name);
   }

@@ -50,6 +50,22 @@ TEST_CASE("cli: check prints the summary and warns about violated constraints", 
                        ":4:11: warning: constraint 'too_long' "
                        "(distance(a, b) == 2 m) is violated by the nominal geometry") !=
         std::string::npos);
+  CHECK(out.str().find("restates") == std::string::npos);  // it repeats nothing
+
+  // One that repeats an earlier constraint with another value: the pair is named.
+  std::ofstream(model) << "points: {a: [0, 0, 0], b: [1, 0, 0], c: [0, 1, 0]}\nconstraints:\n"
+                          "  - distance(a, b) == 1 m\n  - distance(a, c) == 1 m\n"
+                          "  - {name: too_far, expr: \"distance(a, b) == 2 m\"}\n";
+  std::ostringstream out2, err2;
+  REQUIRE(RunCheck({model.string(), false, {}}, out2, err2) == 0);
+  CHECK(out2.str().find("warning: constraint 'too_far' (distance(a, b) == 2 m) is violated by "
+                        "the nominal geometry (largest residual 1); it restates what 'c1' "
+                        "(distance(a, b) == 1 m) fixes, which holds there: they contradict each "
+                        "other") != std::string::npos);
+  std::ostringstream out3, err3;
+  REQUIRE(RunCheck({model.string(), true, {}}, out3, err3) == 0);
+  CHECK(nlohmann::json::parse(out3.str())["violations"][0]["repeats"] ==
+        nlohmann::json::array({"c1"}));
 }
 
 TEST_CASE("cli: check warns about a face that is not planar", "[cli]") {

@@ -240,7 +240,7 @@ const BadCase kCases[] = {
   {"rigid_points_coincide.yaml", nullptr, 4, 5,
    "constraint 'c1': rigid: points 2 and 3 coincide at the nominal geometry"},
   {"rigid_same_component.yaml", nullptr, 5, 5,
-   "constraint 'c1': rigid: the points already belong to one rigid component"},
+   "constraint 'constraint_1': rigid: the points already belong to one rigid component"},
 };
 // clang-format on
 

@@ -347,6 +347,15 @@ constraints:
   CHECK(g.constraints[1].name == "square");
   CHECK(g.constraints[2].name == "c3");
   CHECK(g.constraints[2].kind == "coplanar");
+  // Not the name of a point: messages would name two things alike.
+  const ConstraintGraph h = Load(R"yaml(
+points: {c1: [0, 0, 0], b: [1, 0, 0], c: [0, 1, 0]}
+constraints:
+  - distance(c1, b) == nominal
+  - distance(c1, c) == nominal
+)yaml");
+  CHECK(h.constraints[0].name == "constraint_1");
+  CHECK(h.constraints[1].name == "c2");
 }
 
 TEST_CASE("dsl: a bare point name resolves to the unique feature point", "[dsl]") {
