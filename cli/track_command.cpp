@@ -22,6 +22,7 @@
 #include "cli/image_support.h"
 #include "interp/joint_estimates.h"
 #include "interp/solve.h"
+#include "kernel/chi_square.h"
 #include "kernel/error.h"
 #include "track/overlay.h"
 #include "track/tracker.h"
@@ -229,7 +230,7 @@ std::string TrackCsvHeader(const ConstraintGraph& graph, bool fit) {
   for (const Joint& j : graph.joints) {
     if (HasJointVariable(j.type)) out += "," + j.name;
   }
-  if (fit) out += ",support,sigma_mm";
+  if (fit) out += ",support,sigma_mm,chi2,dof,p_value";
   return out + "\n";
 }
 
@@ -248,6 +249,13 @@ std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms,
   for (Eigen::Index k = 0; k < joints.size(); ++k) out += fmt::format(",{:.6f}", joints[k]);
   if (fit) {
     out += fmt::format(",{:.3f},{:.2f}", fit->verification.share, 1000 * fit->position_sigma);
+    // Empty when lost: no set of matches was accepted to have a fit.
+    if (verified) {
+      const double p = fit->fit_dof > 0 ? 1 - ChiSquareCdf(fit->chi2, fit->fit_dof) : 1.0;
+      out += fmt::format(",{:.3f},{},{:.3g}", fit->chi2, fit->fit_dof, p);
+    } else {
+      out += ",,,";
+    }
   }
   return out + "\n";
 }

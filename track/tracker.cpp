@@ -370,6 +370,8 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
   }
   out->matches = static_cast<int>(result.best->lines.size());
   out->residual_sigma = result.best->residual_sigma;
+  out->chi2 = result.best->chi2;
+  out->fit_dof = std::max(0, result.best->rows - dof_);
   out->model_sigma = result.best->model_sigma;
   out->estimate = result.best->state;
   out->verified = true;

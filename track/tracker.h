@@ -161,6 +161,10 @@ struct TrackedFrame {
   int matches = 0;            // in the accepted (extended) set
   bool reacquired = false;    // found by re-acquisition, away from the prediction
   double residual_sigma = 0;  // px, RMS of the accepted matches' residuals
+  // The accepted matches' whitened residuals at the estimate: chi-square over the rows the fit
+  // leaves free (2 a match, less the model's DOF); 0 and 0 when lost.
+  double chi2 = 0;
+  int fit_dof = 0;
   double model_sigma = 0;     // px, their robust scale (MatchedSet::model_sigma)
   // m: the largest standard deviation of a visible edge's end under the estimate's covariance.
   double position_sigma = 0;

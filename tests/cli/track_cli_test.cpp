@@ -16,6 +16,7 @@
 #include "cli/image_commands.h"
 #include "cli/track_command.h"
 #include "dsl/pose_reader.h"
+#include "kernel/chi_square.h"
 #include "test_util.h"
 
 namespace cfuse::cli {
@@ -105,15 +106,25 @@ TEST_CASE("cli: render --sequence, then track it from a glob, with overlays", "[
   const auto truth = ReadCsv(s.frames / "truth.csv");
   REQUIRE(track.size() == 25);
   // The truth's columns (frame, time_ms, verified, box's 7, lid's 7, hinge), then the fit.
-  REQUIRE(track[0].size() == truth[0].size() + 2);
+  REQUIRE(track[0].size() == truth[0].size() + 5);
   CHECK(std::equal(truth[0].begin(), truth[0].end(), track[0].begin()));
-  CHECK(track[0].size() == 3 + 7 + 7 + 1 + 2);
-  CHECK(track[0][track[0].size() - 3] == "hinge");
-  CHECK(track[0][track[0].size() - 2] == "support");
-  CHECK(track[0].back() == "sigma_mm");
+  CHECK(track[0].size() == 3 + 7 + 7 + 1 + 5);
+  const size_t fit = truth[0].size();
+  CHECK(track[0][fit - 1] == "hinge");
+  CHECK(track[0][fit] == "support");
+  CHECK(track[0][fit + 1] == "sigma_mm");
+  CHECK(track[0][fit + 2] == "chi2");
+  CHECK(track[0][fit + 3] == "dof");
+  CHECK(track[0][fit + 4] == "p_value");
   for (size_t r = 1; r < track.size(); ++r) {
-    CHECK(std::stod(track[r][track[r].size() - 2]) >= 0.5);  // verified: half the outline
-    CHECK(std::stod(track[r].back()) <= 4.0);                // and determined to 4 mm
+    CHECK(std::stod(track[r][fit]) >= 0.5);      // verified: half the outline
+    CHECK(std::stod(track[r][fit + 1]) <= 4.0);  // and determined to 4 mm
+    // The residual test accepted the set: its chi-square below the 0.999 quantile.
+    const double chi2 = std::stod(track[r][fit + 2]);
+    const int dof = std::stoi(track[r][fit + 3]);
+    CHECK(dof > 0);
+    CHECK(chi2 <= ChiSquareQuantile(0.999, dof));
+    CHECK(std::abs(std::stod(track[r][fit + 4]) - (1 - ChiSquareCdf(chi2, dof))) < 1e-3);
   }
   for (size_t r = 1; r < track.size(); ++r) {
     CHECK(track[r][0] == std::to_string(r - 1));
