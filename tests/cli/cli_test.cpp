@@ -24,7 +24,11 @@ TEST_CASE("cli: check --json reports the designed DOF of every example", "[cli]"
       {"examples/lamp.yaml", 11, 6, 5},
       {"examples/scissors.yaml", 7, 6, 1},
       {"examples/hinged-box.yaml", 7, 6, 1},
-      {"examples/planar-arm.yaml", 3, 0, 3}};
+      {"examples/planar-arm.yaml", 3, 0, 3},
+      {"examples/four-bar.yaml", 7, 6, 1},
+      {"examples/folding-ruler.yaml", 9, 6, 3},
+      {"examples/stewart-platform.yaml", 12, 6, 6},
+      {"examples/cabinet.yaml", 8, 6, 2}};
   for (const auto& [file, dof, rigid, internal] : examples) {
     std::ostringstream out, err;
     REQUIRE(RunCheck({testing::SourcePath(file), true, {}}, out, err) == 0);

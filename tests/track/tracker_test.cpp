@@ -194,7 +194,7 @@ TEST_CASE("tracker: a robot from its URDF, realistic", "[tracker]") {
 TEST_CASE("tracker: a cabinet, drawer and door (8 DOF, three parts), with default options",
           "[tracker]") {
   const ConstraintGraph graph =
-      dsl::LoadModel(testing::SourcePath("tests/data/models/cabinet.yaml"));
+      dsl::LoadModel(testing::SourcePath("examples/cabinet.yaml"));
   // (Its realistic renders are not here: with the door nearly edge-on against a photograph of a
   // calibration grid, a frame 15 mm off was verified; docs/benchmarks.md.)
   CheckScenario(graph, {"steady", 0.95, 2.0, 3.0, 0.5}, 60);

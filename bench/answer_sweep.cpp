@@ -1,0 +1,171 @@
+// Are the answers right when they are given? A Monte Carlo sweep over models, data kinds and
+// clutter (docs/benchmarks.md, "Right, wrong or refused").
+//
+//   answer_sweep MODEL... [--trials 50] [--first 0] [--verbose]
+//
+// For every model, from 3D points (2 mm noise) and from one 640 x 480 pinhole camera (1 px
+// noise), without clutter (labelled points: `solve`) and with one clutter point per real one
+// (unlabelled: `interpret`), TRIALS configurations are simulated (seeds 100, 101, ...; joint
+// values drawn inside their limits, the closed chains closed) and each is estimated. A row per
+// cell: the share of trials
+//   - right: accepted (what the CLI answers with exit 0: converged, every constraint holding,
+//     the fit test passed, nothing contradictory) and every rigid component's position within
+//     the 0.9999 chi-square gate of its reported covariance (NEES < 21.1, 3 DOF);
+//   - wrong: accepted but some component beyond that gate (the target is 0);
+//   - refused: not accepted (exit 1, with the reason);
+// the share with alternatives reported, and the mean position NEES over the components of the
+// right answers (3 when the covariance is honest).
+#include <fmt/format.h>
+
+#include <CLI/CLI.hpp>
+#include <Eigen/Cholesky>
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include "bench/sweep_main.h"
+#include "dsl/model_loader.h"
+#include "interp/interpretation.h"
+#include "interp/simulate.h"
+#include "interp/solve.h"
+#include "vision/pnp.h"
+
+namespace {
+
+using namespace cfuse;
+
+constexpr double kGate = 21.108;  // chi-square, 3 DOF, 0.9999
+
+struct Tally {
+  int trials = 0, right = 0, wrong = 0, refused = 0, alternatives = 0, failed_to_simulate = 0;
+  double nees = 0;
+  int nees_count = 0;
+};
+
+// The position NEES of every component (single points count as components). A covariance
+// floor of (1 µm)² keeps a component the model fixes (covariance 0) from dividing rounding
+// error by zero.
+std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const GaussianState& state) {
+  std::vector<double> out;
+  for (const Component& c : g.components) {
+    const Block& b = g.blocks[c.block];
+    Eigen::Vector3d error;
+    Eigen::Matrix3d cov;
+    if (c.rigid) {
+      error = state.mean.poses[b.index].translation - truth.poses[b.index].translation;
+      cov = state.covariance.block<3, 3>(b.tangent_offset + 3, b.tangent_offset + 3);
+    } else {
+      error = state.mean.points[b.index] - truth.points[b.index];
+      cov = state.covariance.block<3, 3>(b.tangent_offset, b.tangent_offset);
+    }
+    cov += 1e-12 * Eigen::Matrix3d::Identity();
+    const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
+    const double nees = ldlt.info() == Eigen::Success ? error.dot(ldlt.solve(error)) : HUGE_VAL;
+    out.push_back(std::isfinite(nees) ? nees : HUGE_VAL);
+  }
+  return out;
+}
+
+int Run(int argc, char** argv) {
+  CLI::App app{"Right, wrong or refused: solve and interpret on simulated data"};
+  std::vector<std::string> models;
+  int trials = 50, first = 0;
+  app.add_option("models", models, "model files")->required();
+  app.add_option("--trials", trials, "configurations per cell")->check(CLI::Range(1, 100000));
+  app.add_option("--first", first, "first trial (seed 100 + first)");
+  bool verbose = false;
+  app.add_flag("--verbose", verbose, "each wrong accepted answer on stderr");
+  CLI11_PARSE(app, argc, argv);
+
+  Camera pinhole;
+  pinhole.fx = pinhole.fy = 800;
+  pinhole.cx = 320;
+  pinhole.cy = 240;
+  pinhole.width = 640;
+  pinhole.height = 480;
+
+  fmt::print(
+      "| model | data | clutter | command | trials | right | wrong, accepted | refused | "
+      "alternatives | mean NEES (right) |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  for (const std::string& file : models) {
+    const ConstraintGraph g = dsl::LoadModel(file);
+    for (const bool image : {false, true}) {
+      for (const double clutter : {0.0, 1.0}) {
+        Tally tally;
+        for (int t = first; t < first + trials; ++t) {
+          SimulateOptions so;
+          so.seed = static_cast<unsigned>(100 + t);
+          so.sample_joints = !g.joints.empty();
+          so.clutter = clutter;
+          so.labels = clutter == 0;
+          if (image) so.camera = pinhole;
+          Simulation sim;
+          try {
+            sim = Simulate(g, so);
+          } catch (const InputError&) {
+            ++tally.failed_to_simulate;  // no view puts the model inside the image
+            continue;
+          }
+          ++tally.trials;
+          // As `cfuse solve` and `cfuse interpret` run them.
+          std::optional<Solution> solution;
+          if (clutter == 0) {
+            SolveOptions options;
+            options.pose_from_projections = &vision::PoseFromProjections;
+            options.reject_outliers = true;
+            solution = Solve(g, sim.measurements, options);
+          } else {
+            InterpretOptions options;
+            options.poses_from_three_projections = &vision::PosesFromThreeProjections;
+            options.solve.pose_from_projections = &vision::PoseFromProjections;
+            solution = Interpret(g, sim.measurements, options).solution;
+          }
+          if (!solution || !solution->accepted()) {
+            ++tally.refused;
+            continue;
+          }
+          if (!solution->alternatives.empty()) ++tally.alternatives;
+          const std::vector<double> nees = Nees(g, sim.truth, solution->state);
+          const double worst = *std::max_element(nees.begin(), nees.end());
+          if (worst < kGate) {
+            ++tally.right;
+            for (double e : nees) tally.nees += e;
+            tally.nees_count += static_cast<int>(nees.size());
+          } else {
+            ++tally.wrong;
+            if (verbose) {
+              double error = 0;
+              for (const Component& c : g.components) {
+                const Block& b = g.blocks[c.block];
+                error = std::max(error, c.rigid ? (solution->state.mean.poses[b.index].translation -
+                                                   sim.truth.poses[b.index].translation)
+                                                      .norm()
+                                                : (solution->state.mean.points[b.index] -
+                                                   sim.truth.points[b.index])
+                                                      .norm());
+              }
+              fmt::print(stderr, "{} seed {}: accepted, worst NEES {:.1f}, worst error {:.1f} mm\n",
+                         g.name, so.seed, worst, 1000 * error);
+            }
+          }
+        }
+        const double n = std::max(1, tally.trials);
+        fmt::print("| {} | {} | {} | {} | {}{} | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % | {} |\n",
+                   g.name, image ? "one camera" : "3D points", clutter == 0 ? "none" : "1:1",
+                   clutter == 0 ? "solve" : "interpret", tally.trials,
+                   tally.failed_to_simulate
+                       ? fmt::format(" ({} views missed the image)", tally.failed_to_simulate)
+                       : "",
+                   100 * tally.right / n, 100 * tally.wrong / n, 100 * tally.refused / n,
+                   100 * tally.alternatives / n,
+                   tally.nees_count ? fmt::format("{:.2f}", tally.nees / tally.nees_count) : "-");
+        std::fflush(stdout);
+      }
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) { return cfuse::bench::SweepMain("answer_sweep", Run, argc, argv); }
