@@ -118,7 +118,8 @@ int Run(int argc, char** argv) {
             InterpretOptions options;
             options.poses_from_three_projections = &vision::PosesFromThreeProjections;
             options.solve.pose_from_projections = &vision::PoseFromProjections;
-            solution = Interpret(g, sim.measurements, options).solution;
+            const Interpretation in = Interpret(g, sim.measurements, options);
+            if (in.Refusal().empty()) solution = in.solution;  // else refused, as the CLI does
           }
           if (!solution || !solution->accepted()) {
             ++tally.refused;

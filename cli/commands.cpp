@@ -282,7 +282,13 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
           "found so far is written\n",
           options.max_nodes);
     }
-    return Verdict(graph, *in.solution, err);
+    const int verdict = Verdict(graph, *in.solution, err);
+    if (verdict != 0) return verdict;
+    if (const std::string refusal = in.Refusal(); !refusal.empty()) {
+      err << "cfuse: no interpretation: " << refusal << "\n";
+      return 1;
+    }
+    return 0;
   });
 }
 

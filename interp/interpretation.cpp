@@ -466,6 +466,7 @@ class Interpreter {
     for (const std::vector<ModelPointRef>& s : SeedSets(image)) {
       const size_t first = seeds.size();
       Seeds(s, &seeds);
+      stats_.seeds = static_cast<int>(seeds.size());  // also when the budget ends the search
       searched.resize(seeds.size(), false);
       std::stable_sort(seeds.begin() + static_cast<long>(first), seeds.end(), by_support);
       // A clear winner: well supported, and by two points more than the set's next seed.
@@ -1797,6 +1798,24 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
         solution ? std::move(solution) : search.SolveLabelling(out.assignment, search.best_mean_);
   }
   return out;
+}
+
+std::string Interpretation::Refusal() const {
+  if (!solution) return "no measurement matches a model point";
+  if (!solution->accepted()) return "the estimate from the matches is not accepted";
+  if (!solution->undetermined.empty()) {
+    std::string names;
+    for (const std::string& n : solution->undetermined) names += (names.empty() ? "" : ", ") + n;
+    return fmt::format("the {} matches leave {} undetermined: too few to tell the object from "
+                       "clutter",
+                       matched, names);
+  }
+  if (solution->analysis.fit.dof < 1) {
+    return fmt::format("the {} matches fit exactly, with no residual degrees of freedom: any {} "
+                       "points would, so they cannot tell the object from clutter",
+                       matched, matched);
+  }
+  return "";
 }
 
 std::string TreeDot(const ConstraintGraph& graph, const Interpretation& in) {

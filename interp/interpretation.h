@@ -189,6 +189,12 @@ struct Interpretation {
   std::vector<TraceLevel> trace;
   // The estimate from the matches (interp/solve.h), when at least one point was matched.
   std::optional<Solution> solution;
+
+  // Why the matches are no answer, or "" when they are one. Besides an estimate that is not
+  // accepted (Solution::accepted), matches that leave some direction to the prior, or that fit
+  // with no residual degrees of freedom, would fit clutter as well as the object: they cannot
+  // tell which measurements are the object's.
+  std::string Refusal() const;
 };
 
 // The tree's tables and candidate lists grow with the square of the measurements, and its time

@@ -342,6 +342,12 @@ std::string FormatPlan(const ConstraintGraph& g, const FusionPlan& plan) {
       seed += (i ? ", " : "") + ModelPointName(g, plan.levels[i].component, plan.levels[i].feature);
     }
     out += fmt::format("seed: {} (a pose in closed form from their matches)\n", seed);
+  } else {
+    // Without a seed the interpretation tree starts from the prior alone: each level gated about
+    // a pose nothing has fixed yet, which in clutter matches slowly or wrongly.
+    out += "warning: no seed: no three points are held rigid (by a rigid component or by "
+           "distances between them), so interpretation starts from the prior alone; make the "
+           "part a rigid component, or add the distances that hold it rigid\n";
   }
   auto names = [&](const std::vector<int>& constraints) {
     std::string s;

@@ -2,6 +2,8 @@
 // input ending in a clear status within the node budget.
 #include "interp/interpretation.h"
 
+#include <fmt/format.h>
+
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <optional>
@@ -145,6 +147,32 @@ TEST_CASE("interpret: the result is estimated from the matches and names the sea
   // The dot file names every level and renders (tests/cli checks with `dot`).
   const std::string dot = TreeDot(g, in);
   CHECK(dot.find("level 23:") != std::string::npos);
+}
+
+// Matches that any points would fit are no answer: three clutter points matched to a pair of
+// scissors seen by one camera fit exactly and leave its pose to the prior.
+TEST_CASE("interpret: matches that cannot tell the object from clutter are refused", "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  SimulateOptions so;
+  so.seed = 3;
+  so.clutter = 1;
+  const Simulation sim = Simulate(g, so);
+  Interpretation in = Interpret(g, sim.measurements);
+  REQUIRE(in.solution);
+  CHECK(in.Refusal().empty());  // every point matched: determined, and 2 of 3 rows to spare
+  CHECK(in.solution->analysis.fit.dof > 0);
+  in.solution->undetermined = {"lid", "hinge"};
+  CHECK(in.Refusal() == fmt::format("the {} matches leave lid, hinge undetermined: too few to "
+                                    "tell the object from clutter",
+                                    in.matched));
+  in.solution->undetermined.clear();
+  in.solution->analysis.fit.dof = 0;
+  CHECK(in.Refusal().find("fit exactly, with no residual degrees of freedom") !=
+        std::string::npos);
+  in.solution->summary.converged = false;
+  CHECK(in.Refusal() == "the estimate from the matches is not accepted");
+  in.solution.reset();
+  CHECK(in.Refusal() == "no measurement matches a model point");
 }
 
 TEST_CASE("interpret: degenerate inputs end in a clear status within the budget", "[interp]") {

@@ -99,6 +99,20 @@ TEST_CASE("plan: the lamp starts from its base triangle, a pose in closed form",
   CHECK(FormatPlan(g, plan).find("seed: p1, p3, p6") != std::string::npos);
 }
 
+TEST_CASE("plan: a model with no rigid triple says it has no seed", "[interp]") {
+  // Held only by a perpendicular and a coplanarity: no three points rigid.
+  const ConstraintGraph g = Model(R"(points: {a: [0, 0, 0], b: [1, 0, 0], c: [0, 1, 0], d: [1, 1, 0]}
+constraints:
+  - perpendicular(b - a, c - a)
+  - coplanar(a, b, c, d)
+)");
+  const FusionPlan plan = PlanFusion(g);
+  CHECK(plan.seed_levels == 0);
+  const std::string text = FormatPlan(g, plan);
+  CHECK(text.find("warning: no seed: no three points are held rigid") != std::string::npos);
+  CHECK(text.find("seed: ") == text.find("no seed: ") + 3);  // no seed line besides
+}
+
 TEST_CASE("plan: hand-checked orders on small graphs", "[interp]") {
   SECTION("a chain of points: each next point after the distance that reaches it") {
     const ConstraintGraph g = Model(R"(
