@@ -43,8 +43,10 @@ struct Tally {
 };
 
 // The position NEES of every component (single points count as components). A covariance
-// floor of (1 µm)² keeps a component the model fixes (covariance 0) from dividing rounding
-// error by zero.
+// floor of (0.1 mm)² keeps a direction the constraints pin (a link's origin moves on a circle:
+// its covariance has rank 1, and the estimate's second-order error leaves the circle by tens
+// of µm) and a component the model fixes (covariance 0) from dividing that by zero; a wrong
+// answer, off by millimetres there, still stands out.
 std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const GaussianState& state) {
   std::vector<double> out;
   for (const Component& c : g.components) {
@@ -58,7 +60,7 @@ std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const Ga
       error = state.mean.points[b.index] - truth.points[b.index];
       cov = state.covariance.block<3, 3>(b.tangent_offset, b.tangent_offset);
     }
-    cov += 1e-12 * Eigen::Matrix3d::Identity();
+    cov += 1e-8 * Eigen::Matrix3d::Identity();
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
     const double nees = ldlt.info() == Eigen::Success ? error.dot(ldlt.solve(error)) : HUGE_VAL;
     out.push_back(std::isfinite(nees) ? nees : HUGE_VAL);
