@@ -1804,8 +1804,10 @@ std::string Interpretation::Refusal() const {
   if (!solution) return "no measurement matches a model point";
   if (!solution->accepted()) return "the estimate from the matches is not accepted";
   // A search the budget cut short has not compared its best with the rest: unless that best
-  // accounts for every model point, a better interpretation may lie in what it did not see.
-  if (stats.status == SearchStats::Status::kBudget && matched < static_cast<int>(assignment.size())) {
+  // accounts for all model points but kLazyNulls (where a complete search stops too), a better
+  // interpretation may lie in what it did not see.
+  if (stats.status == SearchStats::Status::kBudget &&
+      matched < static_cast<int>(assignment.size()) - kLazyNulls) {
     return fmt::format("the node budget ended the search with {} of {} model points matched: "
                        "the best interpretation so far is written, unverified (raise "
                        "--max-nodes, or crop the data)",

@@ -191,8 +191,8 @@ struct Interpretation {
   std::optional<Solution> solution;
 
   // Why the matches are no answer, or "" when they are one. Besides an estimate that is not
-  // accepted (Solution::accepted): a search the node budget ended before it matched every model
-  // point; and matches that leave some direction to the prior, or that fit with no residual
+  // accepted (Solution::accepted): a search the node budget ended before it matched all model
+  // points but two; and matches that leave some direction to the prior, or that fit with no residual
   // degrees of freedom, which would fit clutter as well as the object.
   std::string Refusal() const;
 };
