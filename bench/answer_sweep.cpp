@@ -79,12 +79,7 @@ int Run(int argc, char** argv) {
   app.add_flag("--verbose", verbose, "each wrong accepted answer on stderr");
   CLI11_PARSE(app, argc, argv);
 
-  Camera pinhole;
-  pinhole.fx = pinhole.fy = 800;
-  pinhole.cx = 320;
-  pinhole.cy = 240;
-  pinhole.width = 640;
-  pinhole.height = 480;
+  const Camera pinhole = bench::SweepCamera();
 
   fmt::print(
       "| model | data | clutter | command | trials | right | wrong, accepted | refused | "

@@ -121,12 +121,7 @@ int Run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   const ConstraintGraph g = dsl::LoadModel(model);
-  Camera pinhole;
-  pinhole.fx = pinhole.fy = 800;
-  pinhole.cx = 320;
-  pinhole.cy = 240;
-  pinhole.width = 640;
-  pinhole.height = 480;
+  const Camera pinhole = bench::SweepCamera();
 
   fmt::print(
       "| model | data | clutter | occlusion | search | all right | matches right | nodes "
