@@ -66,7 +66,12 @@ Values Configuration(const ConstraintGraph& g, const SimulateOptions& options, s
   std::vector<Factor> constraints;
   for (const Constraint& c : g.constraints)
     constraints.push_back({c.residual, c.blocks, {}, c.name});
-  if (options.sample_joints) {
+  // A model whose freedom is not in joints (a Stewart platform's legs are ranges) has nothing
+  // to sample: its configuration is perturbed as without the option.
+  const bool has_joint_variable = std::any_of(g.joints.begin(), g.joints.end(), [](const Joint& j) {
+    return HasJointVariable(j.type);
+  });
+  if (options.sample_joints && has_joint_variable) {
     // Constraints beyond the joints (a closed loop, an inequality between parts): the nearest
     // configuration meeting them, or another sample where there is none (a loop that cannot
     // close at the crank's angle drawn).

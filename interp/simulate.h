@@ -33,7 +33,8 @@ struct SimulateOptions {
   double perturbation = 0.1;     // of the configuration, relative to the extent
   // Articulated models: each joint variable uniform over the middle 80 % of its limits (a
   // turn for a continuous joint, ±10 % of the extent for a prismatic joint without limits),
-  // placed by forward kinematics, instead of the perturbed nominal geometry.
+  // placed by forward kinematics, instead of the perturbed nominal geometry (which a model
+  // without joint variables keeps).
   bool sample_joints = false;
 };
 

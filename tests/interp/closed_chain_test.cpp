@@ -70,6 +70,28 @@ TEST_CASE("closed chains: joint samples of a closed linkage meet every constrain
   }
 }
 
+// A Stewart platform's freedom is in its legs' ranges, not in joints: "sample the joints" still
+// moves its top plate relative to the base, inside every range.
+TEST_CASE("closed chains: a model without joint variables is sampled off its nominal geometry",
+          "[interp]") {
+  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/stewart-platform.yaml"));
+  const int base = g.FindComponent("base"), top = g.FindComponent("top");
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    CAPTURE(seed);
+    SimulateOptions options;
+    options.seed = seed;
+    options.sample_joints = true;
+    const Simulation sim = Simulate(g, options);
+    const Rigid3d& world_from_base = sim.truth.poses[g.blocks[g.components[base].block].index];
+    const Rigid3d& world_from_top = sim.truth.poses[g.blocks[g.components[top].block].index];
+    // At the nominal geometry the two frames coincide.
+    CHECK((world_from_base.Inverse() * world_from_top).translation.norm() > 1e-3);
+    Eigen::VectorXd r;
+    EvaluateConstraints(g, sim.truth, &r, nullptr);
+    CHECK(r.cwiseAbs().maxCoeff() < 1e-9);
+  }
+}
+
 TEST_CASE("closed chains: a rendered sequence keeps the loop closed", "[interp]") {
   const ConstraintGraph g = FourBar();
   const vision::SequenceSpec spec = vision::StandardSequence(g, "steady", 40);
