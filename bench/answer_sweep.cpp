@@ -29,6 +29,7 @@
 #include "interp/simulate.h"
 #include "interp/solve.h"
 #include "vision/pnp.h"
+#include "vision/sequence.h"
 
 namespace {
 
@@ -79,7 +80,7 @@ int Run(int argc, char** argv) {
   app.add_flag("--verbose", verbose, "each wrong accepted answer on stderr");
   CLI11_PARSE(app, argc, argv);
 
-  const Camera pinhole = bench::SweepCamera();
+  const Camera pinhole = vision::StandardCamera();  // 640 x 480, 800 px focal length
 
   fmt::print(
       "| model | data | clutter | command | trials | right | wrong, accepted | refused | "

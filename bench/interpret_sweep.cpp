@@ -45,6 +45,7 @@
 #include "interp/simulate.h"
 #include "interp/solve.h"
 #include "vision/pnp.h"
+#include "vision/sequence.h"
 
 namespace {
 
@@ -121,7 +122,7 @@ int Run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
 
   const ConstraintGraph g = dsl::LoadModel(model);
-  const Camera pinhole = bench::SweepCamera();
+  const Camera pinhole = vision::StandardCamera();  // 640 x 480, 800 px focal length
 
   fmt::print(
       "| model | data | clutter | occlusion | search | all right | matches right | nodes "

@@ -7,20 +7,7 @@
 
 #include <stdexcept>
 
-#include "kernel/measurements/camera.h"
-
 namespace cfuse::bench {
-
-// The sweeps' camera: a 640 x 480 pinhole with an 800 px focal length, centred.
-inline Camera SweepCamera() {
-  Camera c;
-  c.fx = c.fy = 800;
-  c.cx = 320;
-  c.cy = 240;
-  c.width = 640;
-  c.height = 480;
-  return c;
-}
 
 inline int SweepMain(const char* name, int (*run)(int, char**), int argc, char** argv) {
   try {
