@@ -11,7 +11,11 @@
 //   - right: accepted (what the CLI answers with exit 0: converged, every constraint holding,
 //     the fit test passed, nothing contradictory) and every rigid component's position within
 //     the 0.9999 chi-square gate of its reported covariance (NEES < 21.1, 3 DOF);
-//   - wrong: accepted but some component beyond that gate (the target is 0);
+//   - ambiguous: accepted with alternatives said (the CLI warns that the data do not decide),
+//     the answer beyond that gate but one of the alternatives inside it under the answer's
+//     covariance (a symmetric or repeated part: the truth was offered);
+//   - wrong: accepted but some component beyond that gate, and no alternative said is right
+//     (the target is 0);
 //   - refused: not accepted (exit 1, with the reason);
 // the share with alternatives reported, and the mean position NEES over the components of the
 // right answers (3 when the covariance is honest).
@@ -38,7 +42,7 @@ using namespace cfuse;
 constexpr double kGate = 21.108;  // chi-square, 3 DOF, 0.9999
 
 struct Tally {
-  int trials = 0, right = 0, wrong = 0, refused = 0, alternatives = 0, failed_to_simulate = 0;
+  int trials = 0, right = 0, ambiguous = 0, wrong = 0, refused = 0, alternatives = 0, failed_to_simulate = 0;
   double nees = 0;
   int nees_count = 0;
 };
@@ -48,18 +52,19 @@ struct Tally {
 // its covariance has rank 1, and the estimate's second-order error leaves the circle by tens
 // of µm) and a component the model fixes (covariance 0) from dividing that by zero; a wrong
 // answer, off by millimetres there, still stands out.
-std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const GaussianState& state) {
+std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const Values& mean,
+                         const Eigen::MatrixXd& covariance) {
   std::vector<double> out;
   for (const Component& c : g.components) {
     const Block& b = g.blocks[c.block];
     Eigen::Vector3d error;
     Eigen::Matrix3d cov;
     if (c.rigid) {
-      error = state.mean.poses[b.index].translation - truth.poses[b.index].translation;
-      cov = state.covariance.block<3, 3>(b.tangent_offset + 3, b.tangent_offset + 3);
+      error = mean.poses[b.index].translation - truth.poses[b.index].translation;
+      cov = covariance.block<3, 3>(b.tangent_offset + 3, b.tangent_offset + 3);
     } else {
-      error = state.mean.points[b.index] - truth.points[b.index];
-      cov = state.covariance.block<3, 3>(b.tangent_offset, b.tangent_offset);
+      error = mean.points[b.index] - truth.points[b.index];
+      cov = covariance.block<3, 3>(b.tangent_offset, b.tangent_offset);
     }
     cov += 1e-8 * Eigen::Matrix3d::Identity();
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
@@ -67,6 +72,12 @@ std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const Ga
     out.push_back(std::isfinite(nees) ? nees : HUGE_VAL);
   }
   return out;
+}
+
+double WorstNees(const ConstraintGraph& g, const Values& truth, const Values& mean,
+                 const Eigen::MatrixXd& covariance) {
+  const std::vector<double> nees = Nees(g, truth, mean, covariance);
+  return *std::max_element(nees.begin(), nees.end());
 }
 
 int Run(int argc, char** argv) {
@@ -83,8 +94,8 @@ int Run(int argc, char** argv) {
   const Camera pinhole = vision::StandardCamera();  // 640 x 480, 800 px focal length
 
   fmt::print(
-      "| model | data | clutter | command | trials | right | wrong, accepted | refused | "
-      "alternatives | mean NEES (right) |\n|---|---|---|---|---|---|---|---|---|---|\n");
+      "| model | data | clutter | command | trials | right | ambiguous, said | wrong, accepted | "
+      "refused | alternatives | mean NEES (right) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& file : models) {
     const ConstraintGraph g = dsl::LoadModel(file);
     for (const bool image : {false, true}) {
@@ -124,12 +135,20 @@ int Run(int argc, char** argv) {
             continue;
           }
           if (!solution->alternatives.empty()) ++tally.alternatives;
-          const std::vector<double> nees = Nees(g, sim.truth, solution->state);
+          const std::vector<double> nees =
+              Nees(g, sim.truth, solution->state.mean, solution->state.covariance);
           const double worst = *std::max_element(nees.begin(), nees.end());
+          const bool offered = std::any_of(
+              solution->alternatives.begin(), solution->alternatives.end(),
+              [&](const Solution::Alternative& a) {
+                return WorstNees(g, sim.truth, a.mean, solution->state.covariance) < kGate;
+              });
           if (worst < kGate) {
             ++tally.right;
             for (double e : nees) tally.nees += e;
             tally.nees_count += static_cast<int>(nees.size());
+          } else if (offered) {
+            ++tally.ambiguous;
           } else {
             ++tally.wrong;
             if (verbose) {
@@ -149,13 +168,15 @@ int Run(int argc, char** argv) {
           }
         }
         const double n = std::max(1, tally.trials);
-        fmt::print("| {} | {} | {} | {} | {}{} | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % | {} |\n",
+        fmt::print("| {} | {} | {} | {} | {}{} | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % "
+                   "| {} |\n",
                    g.name, image ? "one camera" : "3D points", clutter == 0 ? "none" : "1:1",
                    clutter == 0 ? "solve" : "interpret", tally.trials,
                    tally.failed_to_simulate
                        ? fmt::format(" ({} views missed the image)", tally.failed_to_simulate)
                        : "",
-                   100 * tally.right / n, 100 * tally.wrong / n, 100 * tally.refused / n,
+                   100 * tally.right / n, 100 * tally.ambiguous / n, 100 * tally.wrong / n,
+                   100 * tally.refused / n,
                    100 * tally.alternatives / n,
                    tally.nees_count ? fmt::format("{:.2f}", tally.nees / tally.nees_count) : "-");
         std::fflush(stdout);

@@ -146,6 +146,9 @@ struct Seed {
   std::vector<std::pair<int, int>> assignment;  // (plan level, measurement)
   Rigid3d world_from_nominal;
   int support = 0;      // model points with a measurement near their seeded position
+  // At most this many points can match below the seed: its own component's supported points
+  // and every point of the others, whose places the seed does not fix (a joint may have moved).
+  int bound = 0;
   double residual = 0;  // of the seed's own geometry, normalised
 };
 
@@ -342,10 +345,27 @@ class Interpreter {
     double score = LabellingScore(best_context_, *assignment, solution.state);
     // Each labelling is scored under its own estimate: the likelihood ratio of the data under
     // it against all clutter. A proposal replaces the labelling when it scores higher.
-    auto try_labelling = [&](const std::vector<int>& next) {
+    // A proposal is also scored after one re-association under its own estimate: a label
+    // moved to the right point frees the points it blocked (a segment matched twisted about
+    // its long axis scores better only once its other corners follow).
+    auto try_labelling = [&](const std::vector<int>& proposal) {
+      std::vector<int> next = proposal;
       Solution next_solution = SolveLabelling(next, solution.state.mean);
       if (!next_solution.summary.converged) return false;
-      const double next_score = LabellingScore(best_context_, next, next_solution.state);
+      double next_score = LabellingScore(best_context_, next, next_solution.state);
+      if (std::vector<int> followed = Reassociate(best_context_, next_solution.state);
+          followed != next) {
+        Solution followed_solution = SolveLabelling(followed, next_solution.state.mean);
+        const double followed_score =
+            followed_solution.summary.converged
+                ? LabellingScore(best_context_, followed, followed_solution.state)
+                : -HUGE_VAL;
+        if (followed_score > next_score) {
+          next = std::move(followed);
+          next_solution = std::move(followed_solution);
+          next_score = followed_score;
+        }
+      }
       if (!(next_score > score)) return false;
       *assignment = next;
       solution = std::move(next_solution);
@@ -419,6 +439,70 @@ class Interpreter {
     return false;
   }
 
+  // Other interpretations as complete as the answer: seeds about as well supported as the
+  // answer's own that place the model elsewhere (a symmetric part turned onto itself, identical
+  // parts exchanged) are searched for labellings matching as many points; each found is
+  // returned with its estimate when the fit test does not reject it and it is a distinct
+  // answer. At most `max_seeds` such seeds are searched, within what is left of the budget.
+  std::vector<Solution> Alternatives(const GaussianState& answer, int max_seeds) {
+    std::vector<Solution> out;
+    if (!complete_ || best_matched_ < 0 || seeds_.empty()) return out;
+    const int need = best_matched_;
+    const int saved_context = best_context_, saved_support = best_seed_support_;
+    const double saved_delta = best_delta_;
+    const std::vector<int> saved_assignment = best_assignment_;
+    const Values saved_mean = best_mean_;
+    const auto saved_trace = best_trace_;
+    const SearchStats::Status saved_status = stats_.status;
+    std::vector<GaussianState> placed = {answer};  // the answer's and each alternative's
+    // Whether the seed puts its own points where one of `placed` has them.
+    auto known = [&](const Seed& seed) {
+      const Context& ctx = contexts_[seed.context];
+      return std::any_of(placed.begin(), placed.end(), [&](const GaussianState& state) {
+        for (const auto& [level, m] : seed.assignment) {
+          const Eigen::Vector3d seeded = seed.world_from_nominal * ctx.nominal[level];
+          const Eigen::Vector3d there =
+              ModelPoint(g_, state.mean, ctx.points[level].component, ctx.points[level].feature);
+          if ((there - seeded).norm() > 0.05 * extent_) {
+            return false;
+          }
+        }
+        return true;
+      });
+    };
+    std::vector<size_t> order(seeds_.size());
+    std::iota(order.begin(), order.end(), 0);
+    std::stable_sort(order.begin(), order.end(), [&](size_t a, size_t b) {
+      return seeds_[a].support > seeds_[b].support;
+    });
+    int tried = 0;
+    for (size_t i : order) {
+      if (tried >= max_seeds || seeds_[i].support + kSupportMargin < saved_support) break;
+      if (searched_[i] || known(seeds_[i])) continue;
+      searched_[i] = true;
+      ++tried;
+      best_matched_ = need - 1;  // the search below takes only labellings matching `need`
+      found_ = false;
+      Search(&seeds_[i]);
+      if (stats_.status == SearchStats::Status::kBudget) break;
+      if (!found_) continue;
+      Solution alternative = SolveLabelling(best_assignment_, best_mean_);
+      if (!alternative.accepted()) continue;
+      if (!Distinct(g_, alternative.state.mean, answer, ModelExtent(g_))) continue;
+      placed.push_back(alternative.state);
+      out.push_back(std::move(alternative));
+    }
+    best_matched_ = need;
+    best_context_ = saved_context;
+    best_seed_support_ = saved_support;
+    best_delta_ = saved_delta;
+    best_assignment_ = saved_assignment;
+    best_mean_ = saved_mean;
+    best_trace_ = saved_trace;
+    stats_.status = saved_status;
+    return out;
+  }
+
   // Searches below each seed, most supported first, by iterative deepening on null branches:
   // round k allows k of them, and the first complete interpretation found below a seed ends
   // its search (it has the most matches that seed allows: every round before failed). A later
@@ -450,8 +534,8 @@ class Interpreter {
       Search(nullptr);  // no P3P solver for this camera: the unseeded search
       return;
     }
-    std::vector<Seed> seeds;
-    std::vector<bool> searched;
+    std::vector<Seed>& seeds = seeds_;
+    std::vector<bool>& searched = searched_;
     auto by_support = [](const Seed& a, const Seed& b) {
       return a.support > b.support || (a.support == b.support && a.residual < b.residual);
     };
@@ -459,6 +543,7 @@ class Interpreter {
       searched[i] = true;
       ++stats_.seeds_tried;
       found_ = false;
+      seed_support_ = seeds[i].support;
       Search(&seeds[i]);
       return stats_.status != SearchStats::Status::kBudget;
     };
@@ -472,7 +557,7 @@ class Interpreter {
       // A clear winner: well supported, and by two points more than the set's next seed.
       if (seeds.size() > first && seeds[first].support >= strong &&
           (seeds.size() == first + 1 || seeds[first].support >= seeds[first + 1].support + 2) &&
-          (best_matched_ < 0 || seeds[first].support + kSupportMargin >= best_matched_)) {
+          (best_matched_ < 0 || seeds[first].bound + kSupportMargin >= best_matched_)) {
         if (!search(first)) return;
       }
       if (best_matched_ >= levels_ - kLazyNulls) break;
@@ -488,7 +573,7 @@ class Interpreter {
                      [&](size_t a, size_t b) { return by_support(seeds[a], seeds[b]); });
     for (size_t i : order) {
       if (searched[i]) continue;
-      if (best_matched_ >= 0 && seeds[i].support + kSupportMargin < best_matched_) break;
+      if (best_matched_ >= 0 && seeds[i].bound + kSupportMargin < best_matched_) continue;
       if (!search(i)) return;
     }
   }
@@ -688,7 +773,7 @@ class Interpreter {
           seed.assignment = {{0, index3_[i]}, {1, index3_[j]}, {2, index3_[l]}};
           seed.world_from_nominal = pose;
           seed.residual = r;
-          seed.support = Support(seed, false);
+          Support(&seed, false);
           seeds->push_back(std::move(seed));
         }
       }
@@ -742,15 +827,72 @@ class Interpreter {
                 {0, index2_[i]}, {1, index2_[j]}, {2, index2_[l]}, {3, index2_[match]}};
             seed.world_from_nominal = camera_from_comp * world_from_comp.Inverse();
             seed.residual = best * best;
-            seed.support = Support(seed, true);
+            Support(&seed, true);
             seeds->push_back(std::move(seed));
           }
         }
   }
 
+  // A component joined to a seed's component by a joint with a variable: its plan levels, and
+  // the motions (in the nominal world) that the joint's range gives them with the seed's
+  // component held, sampled finely enough that no point moves more than the support radius
+  // between samples.
+  struct Neighbour {
+    std::vector<int> levels;
+    std::vector<Rigid3d> motions;
+  };
+
+  const std::vector<Neighbour>& Neighbours(int context, int own) const {
+    const auto key = std::make_pair(context, own);
+    if (auto it = neighbours_.find(key); it != neighbours_.end()) return it->second;
+    std::vector<Neighbour>& out = neighbours_[key];
+    const Context& ctx = contexts_[context];
+    const double radius = 0.05 * extent_;  // in 3D; in the image, the same share of the model
+    for (const Joint& joint : g_.joints) {
+      if (!HasJointVariable(joint.type) || (joint.parent != own && joint.child != own)) continue;
+      const int other = joint.parent == own ? joint.child : joint.parent;
+      if (!g_.components[joint.parent].rigid || !g_.components[joint.child].rigid) continue;
+      Neighbour n;
+      for (int l = 0; l < levels_; ++l) {
+        if (ctx.points[l].component == other) n.levels.push_back(l);
+      }
+      if (n.levels.empty()) continue;
+      const Rigid3d world_from_parent =
+          g_.nominal.poses[g_.blocks[g_.components[joint.parent].block].index];
+      const Rigid3d world_from_joint = world_from_parent * joint.parent_from_joint;
+      double lower = -M_PI, upper = M_PI, reach = 0;
+      for (int l : n.levels) {
+        reach = std::max(reach, (world_from_joint.Inverse() * ctx.nominal[l]).norm());
+      }
+      int samples = 1;
+      if (joint.type == JointType::kPrismatic) {
+        if (!joint.limits) continue;  // unbounded: the points stay counted as possible
+        std::tie(lower, upper) = *joint.limits;
+        samples = static_cast<int>(std::ceil((upper - lower) / radius)) + 1;
+      } else {
+        if (joint.limits && joint.type == JointType::kRevolute) std::tie(lower, upper) = *joint.limits;
+        samples = static_cast<int>(std::ceil((upper - lower) * reach / radius)) + 1;
+      }
+      if (samples > 90) continue;  // too long a sweep for a cheap estimate: counted as possible
+      const Rigid3d undo_nominal =
+          JointMotion(joint.type, joint.axis, joint.nominal_position).Inverse();
+      for (int i = 0; i < samples; ++i) {
+        const double q = samples == 1 ? lower : lower + (upper - lower) * i / (samples - 1);
+        // The child moved relative to the parent by `delta` in the nominal world; held at the
+        // child, the parent moves by its inverse.
+        const Rigid3d delta = world_from_joint * JointMotion(joint.type, joint.axis, q) *
+                              undo_nominal * world_from_joint.Inverse();
+        n.motions.push_back(joint.parent == own ? delta : delta.Inverse());
+      }
+      out.push_back(std::move(n));
+    }
+    return out;
+  }
+
   // Model points, placed rigidly with the nominal geometry at the seed's pose, that have a
   // measurement within 5 % of the extent (3D) or 3 % of the image diagonal (2D).
-  int Support(const Seed& seed, bool image) const {
+  void Support(Seed* seed_out, bool image) const {
+    const Seed& seed = *seed_out;
     std::vector<int> exclude;
     for (const auto& [level, m] : seed.assignment) exclude.push_back(m);
     std::vector<std::pair<Eigen::Vector3d, int>> points;
@@ -768,19 +910,40 @@ class Interpreter {
       grid2_.emplace(0.03 * diagonal_, 2, points);
     }
     const Context& ctx = contexts_[seed.context];
-    int support = 0;
-    for (int l = 0; l < levels_; ++l) {
-      const Eigen::Vector3d x = seed.world_from_nominal * ctx.nominal[l];
-      if (!image) {
-        support += grid3_->AnyWithin(x, 0.05 * extent_, exclude) ? 1 : 0;
-      } else if (x.z() > 0) {
-        const Eigen::Vector2d uv = set_.camera->Project<double>(x);
-        support += grid2_->AnyWithin(Eigen::Vector3d(uv.x(), uv.y(), 0), 0.03 * diagonal_, exclude)
-                       ? 1
-                       : 0;
+    const int own = ctx.points[0].component;
+    auto near = [&](const Eigen::Vector3d& x) {
+      if (!image) return grid3_->AnyWithin(x, 0.05 * extent_, exclude);
+      if (!(x.z() > 0)) return false;
+      const Eigen::Vector2d uv = set_.camera->Project<double>(x);
+      return grid2_->AnyWithin(Eigen::Vector3d(uv.x(), uv.y(), 0), 0.03 * diagonal_, exclude);
+    };
+    const std::vector<Neighbour>& neighbours = Neighbours(seed.context, own);
+    std::vector<bool> swept(levels_, false);
+    int support = 0, bound = 0;
+    // A component one joint away: its points where the joint, swept over its range, puts the
+    // most of them near a measurement (the nominal joint value says little: the joint moved).
+    for (const Neighbour& n : neighbours) {
+      int most = 0;
+      for (const Rigid3d& motion : n.motions) {
+        const Rigid3d world_from_moved = seed.world_from_nominal * motion;
+        int count = 0;
+        for (int l : n.levels) count += near(world_from_moved * ctx.nominal[l]) ? 1 : 0;
+        most = std::max(most, count);
       }
+      support += most;
+      for (int l : n.levels) swept[l] = true;
     }
-    return support;
+    for (int l = 0; l < levels_; ++l) {
+      if (swept[l]) {
+        ++bound;
+        continue;
+      }
+      const bool is_near = near(seed.world_from_nominal * ctx.nominal[l]);
+      support += is_near ? 1 : 0;
+      bound += is_near || ctx.points[l].component != own ? 1 : 0;
+    }
+    seed_out->support = support;
+    seed_out->bound = bound;
   }
 
   // ---- The tree --------------------------------------------------------------------------
@@ -1663,6 +1826,7 @@ class Interpreter {
 
   void Leaf(const Frame& f, const std::vector<Frame>& path) {
     found_ = true;
+    best_seed_support_ = seed_support_;
     best_matched_ = f.matched;
     best_delta_ = f.delta_sum;
     best_context_ = context_;
@@ -1689,6 +1853,10 @@ class Interpreter {
   bool image_ = false;                // image measurements only
   std::vector<int> index3_, index2_;  // 3D and 2D measurements, first copies only
   std::vector<bool> duplicate_;       // per measurement: a repeat of an earlier one
+  std::vector<Seed> seeds_;
+  std::vector<bool> searched_;
+  int seed_support_ = 0;       // of the seed being searched
+  int best_seed_support_ = 0;  // of the seed below which the best interpretation was found
   bool found_ = false;                // the current seed's search found a complete interpretation
   struct {
     int matched = 0, context = 0;
@@ -1711,6 +1879,7 @@ class Interpreter {
   // within 20 do not (the point is determined only at second order).
   FusionOptions joint_fusion_{.max_iterations = 20};
   mutable std::optional<Grid> grid3_, grid2_;
+  mutable std::map<std::pair<int, int>, std::vector<Neighbour>> neighbours_;
   mutable Eigen::MatrixXd distance_;  // between 3D measurements (index3_), for seeds
   mutable Eigen::VectorXd sigma2_;    // their largest variances
   mutable double max_trace3_ = -1;    // the largest trace of a 3D measurement's covariance
@@ -1796,6 +1965,17 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
   if (out.matched > 0) {
     out.solution =
         solution ? std::move(solution) : search.SolveLabelling(out.assignment, search.best_mean_);
+    if (out.solution->accepted() && options.max_alternative_seeds > 0) {
+      for (Solution& other :
+           search.Alternatives(out.solution->state, options.max_alternative_seeds)) {
+        out.solution->alternatives.push_back({other.state.mean, other.analysis.fit});
+      }
+      // The statistics count the search for alternatives too.
+      const int refinements = out.stats.refinements;
+      out.stats = search.stats_;
+      out.stats.levels = static_cast<int>(out.plan.levels.size());
+      out.stats.refinements = refinements;
+    }
   }
   return out;
 }

@@ -150,6 +150,11 @@ struct InterpretOptions {
   // Re-associations of the labelling against its own estimate (0: the tree's labelling as
   // found).
   int refine_rounds = 3;
+  // After a complete search, up to this many further seeds, about as well supported as the
+  // answer's and placing the model elsewhere, are searched for interpretations that match as
+  // many points (a symmetric part turned onto itself, identical parts exchanged); those the
+  // fit test does not reject become the solution's alternatives. 0: none.
+  int max_alternative_seeds = 4;
   PosesFromThreeProjections poses_from_three_projections;  // image data: seeds
   SolveOptions solve;  // the final estimate from the matches found
 };

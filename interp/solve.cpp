@@ -688,37 +688,6 @@ bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& la
   return true;
 }
 
-// Whether `other` is a different answer from `best`: a component turned or moved beyond both
-// a floor (3 degrees, 5 % of the model's extent) and three standard deviations of `best`'s
-// estimate (the largest, along any axis), so that two starts ending in one flat valley are
-// one answer.
-bool Distinct(const ConstraintGraph& graph, const Values& other, const GaussianState& best,
-              double extent) {
-  for (const Component& c : graph.components) {
-    const Block& block = graph.blocks[c.block];
-    const int o = block.tangent_offset;
-    if (block.kind == BlockKind::kPose) {
-      const Rigid3d& pa = other.poses[block.index];
-      const Rigid3d& pb = best.mean.poses[block.index];
-      const double turn_sigma =
-          std::sqrt(std::max(0.0, best.covariance.block<3, 3>(o, o).eigenvalues().real().maxCoeff()));
-      const double move_sigma = std::sqrt(
-          std::max(0.0, best.covariance.block<3, 3>(o + 3, o + 3).eigenvalues().real().maxCoeff()));
-      if (pa.rotation.angularDistance(pb.rotation) > std::max(3 * M_PI / 180, 3 * turn_sigma) ||
-          (pa.translation - pb.translation).norm() > std::max(0.05 * extent, 3 * move_sigma)) {
-        return true;
-      }
-    } else if (block.kind == BlockKind::kPoint) {
-      const double move_sigma = std::sqrt(
-          std::max(0.0, best.covariance.block<3, 3>(o, o).eigenvalues().real().maxCoeff()));
-      if ((other.points[block.index] - best.mean.points[block.index]).norm() >
-          std::max(0.05 * extent, 3 * move_sigma)) {
-        return true;
-      }
-    }
-  }
-  return false;
-}
 
 bool Sound(const Solution& s) {
   return s.summary.converged && s.contradictions.empty() && s.invalid.empty();
@@ -805,6 +774,34 @@ std::vector<std::string> UndeterminedNames(const ConstraintGraph& graph, const S
 }
 
 }  // namespace
+
+bool Distinct(const ConstraintGraph& graph, const Values& other, const GaussianState& best,
+              double extent) {
+  for (const Component& c : graph.components) {
+    const Block& block = graph.blocks[c.block];
+    const int o = block.tangent_offset;
+    if (block.kind == BlockKind::kPose) {
+      const Rigid3d& pa = other.poses[block.index];
+      const Rigid3d& pb = best.mean.poses[block.index];
+      const double turn_sigma =
+          std::sqrt(std::max(0.0, best.covariance.block<3, 3>(o, o).eigenvalues().real().maxCoeff()));
+      const double move_sigma = std::sqrt(
+          std::max(0.0, best.covariance.block<3, 3>(o + 3, o + 3).eigenvalues().real().maxCoeff()));
+      if (pa.rotation.angularDistance(pb.rotation) > std::max(3 * M_PI / 180, 3 * turn_sigma) ||
+          (pa.translation - pb.translation).norm() > std::max(0.05 * extent, 3 * move_sigma)) {
+        return true;
+      }
+    } else if (block.kind == BlockKind::kPoint) {
+      const double move_sigma = std::sqrt(
+          std::max(0.0, best.covariance.block<3, 3>(o, o).eigenvalues().real().maxCoeff()));
+      if ((other.points[block.index] - best.mean.points[block.index]).norm() >
+          std::max(0.05 * extent, 3 * move_sigma)) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
 
 Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
                const SolveOptions& options) {

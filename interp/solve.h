@@ -124,6 +124,13 @@ std::vector<ResolvedLabel> ResolveLabels(const ConstraintGraph& graph, const Mea
 // The model's extent: the largest distance of a nominal point from their centroid (>= 1 mm).
 double ModelExtent(const ConstraintGraph& graph);
 
+// Whether `other` is a different answer from `best`: a component turned or moved beyond both
+// a floor (3 degrees, 5 % of the model's extent) and three standard deviations of `best`'s
+// estimate (the largest, along any axis), so that two starts ending in one flat valley are
+// one answer.
+bool Distinct(const ConstraintGraph& graph, const Values& other, const GaussianState& best,
+              double extent);
+
 Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
                const SolveOptions& options = {});
 
