@@ -149,6 +149,9 @@ struct Seed {
   // At most this many points can match below the seed: its own component's supported points
   // and every point of the others, whose places the seed does not fix (a joint may have moved).
   int bound = 0;
+  // Per component: where the search starts it, as a motion of the nominal geometry (the seed's
+  // pose, and for components beyond joints the best of each joint's sweep: Support).
+  std::vector<Rigid3d> placement;
   double residual = 0;  // of the seed's own geometry, normalised
 };
 
@@ -444,9 +447,16 @@ class Interpreter {
   // parts exchanged) are searched for labellings matching as many points; each found is
   // returned with its estimate when the fit test does not reject it and it is a distinct
   // answer. At most `max_seeds` such seeds are searched, within what is left of the budget.
-  std::vector<Solution> Alternatives(const GaussianState& answer, int max_seeds) {
-    std::vector<Solution> out;
-    if (!complete_ || best_matched_ < 0 || seeds_.empty()) return out;
+  struct Found {
+    Solution solution;
+    bool same_plan = false;  // its assignment follows the answer's plan levels
+    std::vector<int> assignment;
+  };
+  std::vector<Found> Alternatives(const GaussianState& answer, int max_seeds) {
+    std::vector<Found> out;
+    if (best_matched_ < 0 || seeds_.empty()) return out;
+    // A quarter of the budget on top of what the search used, whether it ended or not.
+    node_limit_ = std::max(node_limit_, stats_.nodes) + options_.max_nodes / 4;
     const int need = best_matched_;
     const int saved_context = best_context_, saved_support = best_seed_support_;
     const double saved_delta = best_delta_;
@@ -454,6 +464,7 @@ class Interpreter {
     const Values saved_mean = best_mean_;
     const auto saved_trace = best_trace_;
     const SearchStats::Status saved_status = stats_.status;
+    stats_.status = SearchStats::Status::kComplete;  // as far as the searches below go
     std::vector<GaussianState> placed = {answer};  // the answer's and each alternative's
     // Whether the seed puts its own points where one of `placed` has them.
     auto known = [&](const Seed& seed) {
@@ -478,7 +489,10 @@ class Interpreter {
     int tried = 0;
     for (size_t i : order) {
       if (tried >= max_seeds || seeds_[i].support + kSupportMargin < saved_support) break;
-      if (searched_[i] || known(seeds_[i])) continue;
+      // A seed searched while a better interpretation stood was asked for more matches than
+      // `need`, and may hold one with as many; one searched before found fewer.
+      const bool asked_more = i < searched_beyond_.size() && searched_beyond_[i] >= need;
+      if ((searched_[i] && !asked_more) || known(seeds_[i])) continue;
       searched_[i] = true;
       ++tried;
       best_matched_ = need - 1;  // the search below takes only labellings matching `need`
@@ -490,7 +504,7 @@ class Interpreter {
       if (!alternative.accepted()) continue;
       if (!Distinct(g_, alternative.state.mean, answer, ModelExtent(g_))) continue;
       placed.push_back(alternative.state);
-      out.push_back(std::move(alternative));
+      out.push_back({std::move(alternative), best_context_ == saved_context, best_assignment_});
     }
     best_matched_ = need;
     best_context_ = saved_context;
@@ -509,6 +523,7 @@ class Interpreter {
   // seed is searched only if its support could still beat that interpretation, and must then
   // match more points. Without seeds, the same from the nominal geometry (the paper's search).
   void Run() {
+    node_limit_ = options_.max_nodes;
     Explore();
     complete_ = best_matched_ >= 0;
     if (best_matched_ < 0 && partial_.matched > 0) {
@@ -516,6 +531,7 @@ class Interpreter {
       // most, its remaining levels taken as unmatched.
       best_matched_ = partial_.matched;
       best_context_ = partial_.context;
+      best_seed_support_ = partial_.support;
       best_assignment_ = partial_.assignment;
       best_mean_ = partial_.mean;
       best_trace_.assign(levels_, {});
@@ -541,6 +557,8 @@ class Interpreter {
     };
     auto search = [&](size_t i) {
       searched[i] = true;
+      searched_beyond_.resize(seeds.size(), -1);
+      searched_beyond_[i] = best_matched_;
       ++stats_.seeds_tried;
       found_ = false;
       seed_support_ = seeds[i].support;
@@ -833,66 +851,61 @@ class Interpreter {
         }
   }
 
-  // A component joined to a seed's component by a joint with a variable: its plan levels, and
-  // the motions (in the nominal world) that the joint's range gives them with the seed's
-  // component held, sampled finely enough that no point moves more than the support radius
-  // between samples.
-  struct Neighbour {
-    std::vector<int> levels;
-    std::vector<Rigid3d> motions;
-  };
-
-  const std::vector<Neighbour>& Neighbours(int context, int own) const {
-    const auto key = std::make_pair(context, own);
-    if (auto it = neighbours_.find(key); it != neighbours_.end()) return it->second;
-    std::vector<Neighbour>& out = neighbours_[key];
-    const Context& ctx = contexts_[context];
-    const double radius = 0.05 * extent_;  // in 3D; in the image, the same share of the model
-    for (const Joint& joint : g_.joints) {
-      if (!HasJointVariable(joint.type) || (joint.parent != own && joint.child != own)) continue;
-      const int other = joint.parent == own ? joint.child : joint.parent;
-      if (!g_.components[joint.parent].rigid || !g_.components[joint.child].rigid) continue;
-      Neighbour n;
-      for (int l = 0; l < levels_; ++l) {
-        if (ctx.points[l].component == other) n.levels.push_back(l);
+  // The motions (in the nominal world) that joint `j`'s range gives its child with the parent
+  // held, sampled finely enough that no point of either moves more than the support radius
+  // between samples; empty where that takes too many samples or the joint has no variable.
+  const std::vector<Rigid3d>& JointSweep(int j) const {
+    if (auto it = sweeps_.find(j); it != sweeps_.end()) return it->second;
+    std::vector<Rigid3d>& out = sweeps_[j];
+    const Joint& joint = g_.joints[j];
+    if (!HasJointVariable(joint.type) || !g_.components[joint.parent].rigid ||
+        !g_.components[joint.child].rigid) {
+      return out;
+    }
+    const double radius = 0.05 * extent_;
+    const Rigid3d world_from_joint =
+        g_.nominal.poses[g_.blocks[g_.components[joint.parent].block].index] *
+        joint.parent_from_joint;
+    double reach = 0;
+    for (const int c : {joint.parent, joint.child}) {  // either side may be the one swept
+      for (const FeaturePoint& p : g_.components[c].points) {
+        const Eigen::Vector3d x = g_.nominal.poses[g_.blocks[g_.components[c].block].index] *
+                                  p.position;
+        reach = std::max(reach, (world_from_joint.Inverse() * x).norm());
       }
-      if (n.levels.empty()) continue;
-      const Rigid3d world_from_parent =
-          g_.nominal.poses[g_.blocks[g_.components[joint.parent].block].index];
-      const Rigid3d world_from_joint = world_from_parent * joint.parent_from_joint;
-      double lower = -M_PI, upper = M_PI, reach = 0;
-      for (int l : n.levels) {
-        reach = std::max(reach, (world_from_joint.Inverse() * ctx.nominal[l]).norm());
-      }
-      int samples = 1;
-      if (joint.type == JointType::kPrismatic) {
-        if (!joint.limits) continue;  // unbounded: the points stay counted as possible
+    }
+    double lower = -M_PI, upper = M_PI;
+    int samples = 1;
+    if (joint.type == JointType::kPrismatic) {
+      if (!joint.limits) return out;
+      std::tie(lower, upper) = *joint.limits;
+      samples = static_cast<int>(std::ceil((upper - lower) / radius)) + 1;
+    } else {
+      if (joint.limits && joint.type == JointType::kRevolute) {
         std::tie(lower, upper) = *joint.limits;
-        samples = static_cast<int>(std::ceil((upper - lower) / radius)) + 1;
-      } else {
-        if (joint.limits && joint.type == JointType::kRevolute) std::tie(lower, upper) = *joint.limits;
-        samples = static_cast<int>(std::ceil((upper - lower) * reach / radius)) + 1;
       }
-      if (samples > 90) continue;  // too long a sweep for a cheap estimate: counted as possible
-      const Rigid3d undo_nominal =
-          JointMotion(joint.type, joint.axis, joint.nominal_position).Inverse();
-      for (int i = 0; i < samples; ++i) {
-        const double q = samples == 1 ? lower : lower + (upper - lower) * i / (samples - 1);
-        // The child moved relative to the parent by `delta` in the nominal world; held at the
-        // child, the parent moves by its inverse.
-        const Rigid3d delta = world_from_joint * JointMotion(joint.type, joint.axis, q) *
-                              undo_nominal * world_from_joint.Inverse();
-        n.motions.push_back(joint.parent == own ? delta : delta.Inverse());
-      }
-      out.push_back(std::move(n));
+      samples = static_cast<int>(std::ceil((upper - lower) * reach / radius)) + 1;
+    }
+    if (samples > 90) return out;  // too long a sweep for a cheap estimate
+    const Rigid3d undo_nominal =
+        JointMotion(joint.type, joint.axis, joint.nominal_position).Inverse();
+    for (int i = 0; i < samples; ++i) {
+      const double q = samples == 1 ? lower : lower + (upper - lower) * i / (samples - 1);
+      out.push_back(world_from_joint * JointMotion(joint.type, joint.axis, q) * undo_nominal *
+                    world_from_joint.Inverse());
     }
     return out;
   }
 
-  // Model points, placed rigidly with the nominal geometry at the seed's pose, that have a
-  // measurement within 5 % of the extent (3D) or 3 % of the image diagonal (2D).
+  // Model points, placed at the seed's pose, that have a measurement within 5 % of the extent
+  // (3D) or 3 % of the image diagonal (2D); and the most points that could match below the
+  // seed. The seed's own component is placed rigidly; a component joined to a placed one by a
+  // joint with a variable is placed where the joint, swept over its range, puts the most of
+  // its points near a measurement (the nominal joint value says little: the joint moved), and
+  // the search starts there; the rest keep the nominal geometry. Only the own component's
+  // points can be ruled out: the others may sit anywhere their joints allow.
   void Support(Seed* seed_out, bool image) const {
-    const Seed& seed = *seed_out;
+    Seed& seed = *seed_out;
     std::vector<int> exclude;
     for (const auto& [level, m] : seed.assignment) exclude.push_back(m);
     std::vector<std::pair<Eigen::Vector3d, int>> points;
@@ -917,33 +930,58 @@ class Interpreter {
       const Eigen::Vector2d uv = set_.camera->Project<double>(x);
       return grid2_->AnyWithin(Eigen::Vector3d(uv.x(), uv.y(), 0), 0.03 * diagonal_, exclude);
     };
-    const std::vector<Neighbour>& neighbours = Neighbours(seed.context, own);
-    std::vector<bool> swept(levels_, false);
-    int support = 0, bound = 0;
-    // A component one joint away: its points where the joint, swept over its range, puts the
-    // most of them near a measurement (the nominal joint value says little: the joint moved).
-    for (const Neighbour& n : neighbours) {
-      int most = 0;
-      for (const Rigid3d& motion : n.motions) {
-        const Rigid3d world_from_moved = seed.world_from_nominal * motion;
-        int count = 0;
-        for (int l : n.levels) count += near(world_from_moved * ctx.nominal[l]) ? 1 : 0;
-        most = std::max(most, count);
+    const std::vector<std::vector<int>>& levels_of = LevelsOf(seed.context);
+    seed.placement.assign(g_.components.size(), seed.world_from_nominal);
+    std::vector<bool> placed(g_.components.size(), false);
+    placed[own] = true;
+    int support = 0;
+    std::vector<int> queue = {own};
+    for (size_t head = 0; head < queue.size(); ++head) {
+      const int c = queue[head];
+      for (size_t j = 0; j < g_.joints.size(); ++j) {
+        const Joint& joint = g_.joints[j];
+        if (joint.parent != c && joint.child != c) continue;
+        const int other = joint.parent == c ? joint.child : joint.parent;
+        if (placed[other]) continue;
+        const std::vector<Rigid3d>& sweep = JointSweep(static_cast<int>(j));
+        if (sweep.empty()) continue;
+        int most = 0;
+        Rigid3d best = seed.placement[c];
+        for (const Rigid3d& delta : sweep) {
+          const Rigid3d moved = seed.placement[c] * (joint.parent == c ? delta : delta.Inverse());
+          int count = 0;
+          for (int l : levels_of[other]) count += near(moved * ctx.nominal[l]) ? 1 : 0;
+          if (count > most) {
+            most = count;
+            best = moved;
+          }
+        }
+        seed.placement[other] = best;
+        placed[other] = true;
+        support += most;
+        queue.push_back(other);
       }
-      support += most;
-      for (int l : n.levels) swept[l] = true;
     }
+    int bound = 0;
     for (int l = 0; l < levels_; ++l) {
-      if (swept[l]) {
-        ++bound;
-        continue;
-      }
+      const int c = ctx.points[l].component;
+      if (c != own) ++bound;
+      if (placed[c] && c != own) continue;
       const bool is_near = near(seed.world_from_nominal * ctx.nominal[l]);
       support += is_near ? 1 : 0;
-      bound += is_near || ctx.points[l].component != own ? 1 : 0;
+      bound += is_near && c == own ? 1 : 0;
     }
-    seed_out->support = support;
-    seed_out->bound = bound;
+    seed.support = support;
+    seed.bound = bound;
+  }
+
+  // Per component, the plan levels of its points in plan `context`.
+  const std::vector<std::vector<int>>& LevelsOf(int context) const {
+    if (auto it = levels_of_.find(context); it != levels_of_.end()) return it->second;
+    std::vector<std::vector<int>>& out = levels_of_[context];
+    out.resize(g_.components.size());
+    for (int l = 0; l < levels_; ++l) out[contexts_[context].points[l].component].push_back(l);
+    return out;
   }
 
   // ---- The tree --------------------------------------------------------------------------
@@ -962,8 +1000,15 @@ class Interpreter {
     ctx_ = &contexts_[context_];
     Values initial = g_.nominal;
     if (seed) {
-      for (Rigid3d& pose : initial.poses) pose = seed->world_from_nominal * pose;
       for (Eigen::Vector3d& p : initial.points) p = seed->world_from_nominal * p;
+      for (size_t c = 0; c < g_.components.size(); ++c) {
+        const Block& b = g_.blocks[g_.components[c].block];
+        if (b.kind == BlockKind::kPose) {
+          const Rigid3d& motion =
+              seed->placement.empty() ? seed->world_from_nominal : seed->placement[c];
+          initial.poses[b.index] = motion * g_.nominal.poses[b.index];
+        }
+      }
     }
     PriorScale scale;
     scale.position = options_.solve.prior_extent_factor * extent_;
@@ -1070,7 +1115,7 @@ class Interpreter {
       // Can this branch still match more points than the best so far?
       const int can_match = f.matched + real + static_cast<int>(f.pending.size());
       if (best_matched_ >= 0 && can_match <= best_matched_) continue;
-      if (stats_.nodes >= options_.max_nodes) {
+      if (stats_.nodes >= node_limit_) {
         stats_.status = SearchStats::Status::kBudget;
         return;
       }
@@ -1156,6 +1201,7 @@ class Interpreter {
         // The best branch so far, for when the budget ends the search before any leaf.
         partial_.matched = child.matched;
         partial_.context = context_;
+        partial_.support = seed_support_;
         partial_.assignment.assign(levels_, -1);
         for (int l = 0; l < levels_; ++l) {
           partial_.assignment[l] = preassigned_[l] >= 0 ? preassigned_[l]
@@ -1855,11 +1901,13 @@ class Interpreter {
   std::vector<bool> duplicate_;       // per measurement: a repeat of an earlier one
   std::vector<Seed> seeds_;
   std::vector<bool> searched_;
+  std::vector<int> searched_beyond_;  // per seed searched: the best match count it had to beat
+  long node_limit_ = 0;        // the budget: options_.max_nodes, and more for Alternatives
   int seed_support_ = 0;       // of the seed being searched
   int best_seed_support_ = 0;  // of the seed below which the best interpretation was found
   bool found_ = false;                // the current seed's search found a complete interpretation
   struct {
-    int matched = 0, context = 0;
+    int matched = 0, context = 0, support = 0;
     std::vector<int> assignment;
     Values mean;
   } partial_;                    // the branch with the most matches, while no leaf is found
@@ -1879,7 +1927,8 @@ class Interpreter {
   // within 20 do not (the point is determined only at second order).
   FusionOptions joint_fusion_{.max_iterations = 20};
   mutable std::optional<Grid> grid3_, grid2_;
-  mutable std::map<std::pair<int, int>, std::vector<Neighbour>> neighbours_;
+  mutable std::map<int, std::vector<Rigid3d>> sweeps_;                 // JointSweep, by joint
+  mutable std::map<int, std::vector<std::vector<int>>> levels_of_;  // LevelsOf, by plan
   mutable Eigen::MatrixXd distance_;  // between 3D measurements (index3_), for seeds
   mutable Eigen::VectorXd sigma2_;    // their largest variances
   mutable double max_trace3_ = -1;    // the largest trace of a 3D measurement's covariance
@@ -1966,9 +2015,32 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
     out.solution =
         solution ? std::move(solution) : search.SolveLabelling(out.assignment, search.best_mean_);
     if (out.solution->accepted() && options.max_alternative_seeds > 0) {
-      for (Solution& other :
-           search.Alternatives(out.solution->state, options.max_alternative_seeds)) {
-        out.solution->alternatives.push_back({other.state.mean, other.analysis.fit});
+      std::vector<Interpreter::Found> others =
+          search.Alternatives(out.solution->state, options.max_alternative_seeds);
+      // One that matches as many points in the same plan and fits better is the answer: the
+      // data tell them apart (a folding ruler read from its other end fits, but worse).
+      for (Interpreter::Found& other : others) {
+        if (other.same_plan &&
+            other.solution.analysis.fit.chi2 < out.solution->analysis.fit.chi2) {
+          Solution previous = std::move(*out.solution);
+          *out.solution = std::move(other.solution);
+          other.solution = std::move(previous);
+          std::swap(out.assignment, other.assignment);
+          out.matches.assign(set.points.size(), "");
+          out.matched = 0;
+          for (size_t l = 0; l < out.plan.levels.size(); ++l) {
+            const PlanLevel& p = out.plan.levels[l];
+            out.trace[l].chosen = out.assignment[l];
+            if (out.assignment[l] >= 0) {
+              out.matches[out.assignment[l]] = ModelPointName(graph, p.component, p.feature);
+              ++out.matched;
+            }
+          }
+        }
+      }
+      for (const Interpreter::Found& other : others) {
+        out.solution->alternatives.push_back(
+            {other.solution.state.mean, other.solution.analysis.fit});
       }
       // The statistics count the search for alternatives too.
       const int refinements = out.stats.refinements;
