@@ -26,7 +26,7 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
     EvaluateResidual(*c.residual, graph.blocks, c.blocks, graph.nominal, &r, nullptr);
     const double worst = r.size() ? r.cwiseAbs().maxCoeff() : 0.0;
     if (!(worst <= kNominalTolerance)) {
-      s.violations.push_back({c.name, graph.Describe(c), worst, c.where});
+      s.violations.push_back({c.name, graph.Describe(c), worst, c.where, {}, false});
     }
   }
   // Faces must be planar polygons for visibility to mean anything.

@@ -67,6 +67,28 @@ std::vector<std::vector<int>> RowsAddingRank(const ConstraintGraph& graph,
 
 }  // namespace
 
+Eigen::MatrixXd FreeDirections(const ConstraintGraph& graph, const Values& at,
+                               const std::vector<bool>* use) {
+  const int n = graph.tangent_dim();
+  if (n > kMaxDofStateDim) return Eigen::MatrixXd(n, 0);
+  Eigen::MatrixXd J = SlackedJacobian(graph, at);
+  if (use) {
+    int row = 0;
+    for (size_t k = 0; k < graph.constraints.size(); ++k) {
+      const int dim = graph.constraints[k].residual->dimension();
+      if (!(*use)[k]) J.middleRows(row, dim).setZero();
+      row += dim;
+    }
+  }
+  if (J.rows() == 0) return Eigen::MatrixXd::Identity(n, n);
+  Eigen::BDCSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
+  const Eigen::VectorXd& s = svd.singularValues();
+  const double threshold = kRankTolerance * std::max(1.0, s.size() ? s[0] : 0.0);
+  int rank = 0;
+  for (int i = 0; i < s.size(); ++i) rank += s[i] > threshold ? 1 : 0;
+  return svd.matrixV().rightCols(n - rank);
+}
+
 std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at) {
   if (graph.tangent_dim() > kMaxDofStateDim) return {};
   return RowsAddingRank(graph, SlackedJacobian(graph, at));

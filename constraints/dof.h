@@ -56,4 +56,11 @@ std::vector<int> ImplyingConstraints(const ConstraintGraph& graph, const Values&
 // Numerical rank by SVD with threshold kRankTolerance * max(1, σ_max).
 int NumericalRank(const Eigen::MatrixXd& A);
 
+// An orthonormal basis (n x dof) of the directions the constraints leave free to first order at
+// `at` (the null space of J, an inequality's rows counted as its slack's direction: ranges do
+// not make anything rigid). Only the constraints `use` marks when given. Empty (n x 0) beyond
+// kMaxDofStateDim, where nothing is shown rigid.
+Eigen::MatrixXd FreeDirections(const ConstraintGraph& graph, const Values& at,
+                               const std::vector<bool>* use = nullptr);
+
 }  // namespace cfuse

@@ -455,8 +455,7 @@ class Interpreter {
   std::vector<Found> Alternatives(const GaussianState& answer, int max_seeds) {
     std::vector<Found> out;
     if (best_matched_ < 0 || seeds_.empty()) return out;
-    // A quarter of the budget on top of what the search used, whether it ended or not.
-    node_limit_ = std::max(node_limit_, stats_.nodes) + options_.max_nodes / 4;
+    // Within what is left of the budget (none after a search the budget ended).
     const int need = best_matched_;
     const int saved_context = best_context_, saved_support = best_seed_support_;
     const double saved_delta = best_delta_;
@@ -464,7 +463,7 @@ class Interpreter {
     const Values saved_mean = best_mean_;
     const auto saved_trace = best_trace_;
     const SearchStats::Status saved_status = stats_.status;
-    stats_.status = SearchStats::Status::kComplete;  // as far as the searches below go
+    stats_.status = SearchStats::Status::kComplete;  // the searches below set it anew
     std::vector<GaussianState> placed = {answer};  // the answer's and each alternative's
     // Whether the seed puts its own points where one of `placed` has them.
     auto known = [&](const Seed& seed) {
@@ -493,6 +492,10 @@ class Interpreter {
       // `need`, and may hold one with as many; one searched before found fewer.
       const bool asked_more = i < searched_beyond_.size() && searched_beyond_[i] >= need;
       if ((searched_[i] && !asked_more) || known(seeds_[i])) continue;
+      // (A seed's own matches are fused before the search can stop on the budget.)
+      if (stats_.nodes + static_cast<long>(seeds_[i].assignment.size()) >= options_.max_nodes) {
+        break;
+      }
       searched_[i] = true;
       ++tried;
       best_matched_ = need - 1;  // the search below takes only labellings matching `need`
@@ -523,7 +526,6 @@ class Interpreter {
   // seed is searched only if its support could still beat that interpretation, and must then
   // match more points. Without seeds, the same from the nominal geometry (the paper's search).
   void Run() {
-    node_limit_ = options_.max_nodes;
     Explore();
     complete_ = best_matched_ >= 0;
     if (best_matched_ < 0 && partial_.matched > 0) {
@@ -1115,7 +1117,7 @@ class Interpreter {
       // Can this branch still match more points than the best so far?
       const int can_match = f.matched + real + static_cast<int>(f.pending.size());
       if (best_matched_ >= 0 && can_match <= best_matched_) continue;
-      if (stats_.nodes >= node_limit_) {
+      if (stats_.nodes >= options_.max_nodes) {
         stats_.status = SearchStats::Status::kBudget;
         return;
       }
@@ -1902,7 +1904,6 @@ class Interpreter {
   std::vector<Seed> seeds_;
   std::vector<bool> searched_;
   std::vector<int> searched_beyond_;  // per seed searched: the best match count it had to beat
-  long node_limit_ = 0;        // the budget: options_.max_nodes, and more for Alternatives
   int seed_support_ = 0;       // of the seed being searched
   int best_seed_support_ = 0;  // of the seed below which the best interpretation was found
   bool found_ = false;                // the current seed's search found a complete interpretation

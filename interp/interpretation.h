@@ -153,7 +153,8 @@ struct InterpretOptions {
   // After a complete search, up to this many further seeds, about as well supported as the
   // answer's and placing the model elsewhere, are searched for interpretations that match as
   // many points (a symmetric part turned onto itself, identical parts exchanged); those the
-  // fit test does not reject become the solution's alternatives. 0: none.
+  // fit test does not reject become the solution's alternatives; within what the search left
+  // of max_nodes. 0: none.
   int max_alternative_seeds = 4;
   PosesFromThreeProjections poses_from_three_projections;  // image data: seeds
   SolveOptions solve;  // the final estimate from the matches found

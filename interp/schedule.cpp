@@ -1,5 +1,7 @@
 #include "interp/schedule.h"
 
+#include "constraints/dof.h"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -83,6 +85,42 @@ std::vector<std::array<int, 3>> RigidTriangles(const ConstraintGraph& g,
     for (int a : comps) {
       for (int b : comps) {
         if (a != b && !g.components[a].rigid && !g.components[b].rigid) rigid_with[a].insert(b);
+      }
+    }
+  }
+  // Pairs held at a fixed distance by other constraints together (perpendicular, coplanar,
+  // angles, ...): the distance's gradient has no part along the directions the constraints
+  // leave free (dof.h), to first order at the nominal geometry.
+  bool other_kinds = false;
+  for (size_t k = 0; k < g.constraints.size(); ++k) {
+    const Constraint& c = g.constraints[k];
+    if ((use && !(*use)[k]) || c.slack_block >= 0 || c.kind == "rigid") continue;
+    if (c.kind == "distance ==") continue;
+    const std::vector<int> comps = ConstraintComponents(g, c);
+    other_kinds = other_kinds || std::any_of(comps.begin(), comps.end(), [&](int a) {
+                    return !g.components[a].rigid;
+                  });
+  }
+  if (other_kinds) {
+    const Eigen::MatrixXd free = FreeDirections(g, g.nominal, use);
+    if (free.cols() < free.rows()) {  // beyond kMaxDofStateDim nothing is shown rigid
+      for (int a = 0; a < n; ++a) {
+        if (g.components[a].rigid) continue;
+        const Block& ba = g.blocks[g.components[a].block];
+        for (int b = a + 1; b < n; ++b) {
+          if (g.components[b].rigid || rigid_with[a].count(b)) continue;
+          const Block& bb = g.blocks[g.components[b].block];
+          const Eigen::Vector3d d = g.nominal.points[ba.index] - g.nominal.points[bb.index];
+          if (d.norm() <= 0) continue;
+          const Eigen::Vector3d u = d.normalized();
+          // d|pa - pb| along each free direction.
+          const Eigen::VectorXd change = free.middleRows<3>(ba.tangent_offset).transpose() * u -
+                                         free.middleRows<3>(bb.tangent_offset).transpose() * u;
+          if (change.norm() < 1e-7) {
+            rigid_with[a].insert(b);
+            rigid_with[b].insert(a);
+          }
+        }
       }
     }
   }

@@ -313,5 +313,32 @@ TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[inte
   INFO(accepted << " of 4 accepted");
   CHECK(wrong == 0);
 }
+// Seeded from a triangle that a right angle makes rigid (schedule_test.cpp): every point of
+// the four matched among as many clutter points, from seeds rather than the unseeded search.
+TEST_CASE("interpret: a model made rigid by a right angle and coplanarity is seeded",
+          "[interp]") {
+  const ConstraintGraph g = dsl::LoadModelFromString(
+      R"(points: {a: [0, 0, 0], b: [0.3, 0, 0], c: [0, 0.2, 0], d: [0.25, 0.15, 0]}
+constraints:
+  - distance(a, b) == nominal
+  - distance(a, c) == nominal
+  - perpendicular(b - a, c - a)
+  - coplanar(a, b, c, d)
+  - distance(b, d) == nominal
+  - distance(c, d) == nominal
+)",
+      "model.yaml", ".");
+  for (unsigned seed : {1u, 2u, 3u}) {
+    SimulateOptions so;
+    so.seed = seed;
+    so.clutter = 1;
+    const Simulation sim = Simulate(g, so);
+    const Interpretation in = Interpret(g, sim.measurements);
+    CHECK(in.stats.seeds > 0);
+    CHECK(in.Refusal().empty());
+    CHECK(in.matches == sim.matches);
+  }
+}
+
 }  // namespace
 }  // namespace cfuse

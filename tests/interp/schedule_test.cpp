@@ -113,6 +113,33 @@ constraints:
   CHECK(text.find("seed: ") == text.find("no seed: ") + 3);  // no seed line besides
 }
 
+// Two sides and the right angle between them hold a triangle rigid although no distance
+// constraint joins its other two corners: the seed comes from the constraint Jacobian (the
+// third side's length cannot change along any direction the constraints leave free), and a
+// corner held by coplanarity and two distances joins it.
+TEST_CASE("plan: a triangle made rigid by a right angle is a seed", "[interp]") {
+  const std::string text = R"(points: {a: [0, 0, 0], b: [0.3, 0, 0], c: [0, 0.2, 0], d: [0.25, 0.15, 0]}
+constraints:
+  - distance(a, b) == nominal
+  - distance(a, c) == nominal
+  - perpendicular(b - a, c - a)
+  - coplanar(a, b, c, d)
+  - distance(b, d) == nominal
+  - distance(c, d) == nominal
+)";
+  const ConstraintGraph g = Model(text);
+  const std::vector<std::array<int, 3>> triangles = RigidTriangles(g);
+  REQUIRE(!triangles.empty());
+  const FusionPlan plan = PlanFusion(g);
+  CHECK(plan.seed_levels == 3);
+  CHECK(FormatPlan(g, plan).find("no seed") == std::string::npos);
+  // Without the right angle nothing but the sides is rigid: no triangle.
+  std::string loose = text;
+  loose.replace(loose.find("  - perpendicular(b - a, c - a)\n"), 32, "");
+  REQUIRE(loose.find("perpendicular") == std::string::npos);
+  CHECK(RigidTriangles(Model(loose)).empty());
+}
+
 TEST_CASE("plan: hand-checked orders on small graphs", "[interp]") {
   SECTION("a chain of points: each next point after the distance that reaches it") {
     const ConstraintGraph g = Model(R"(
