@@ -317,17 +317,8 @@ TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[inte
 // the four matched among as many clutter points, from seeds rather than the unseeded search.
 TEST_CASE("interpret: a model made rigid by a right angle and coplanarity is seeded",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModelFromString(
-      R"(points: {a: [0, 0, 0], b: [0.3, 0, 0], c: [0, 0.2, 0], d: [0.25, 0.15, 0]}
-constraints:
-  - distance(a, b) == nominal
-  - distance(a, c) == nominal
-  - perpendicular(b - a, c - a)
-  - coplanar(a, b, c, d)
-  - distance(b, d) == nominal
-  - distance(c, d) == nominal
-)",
-      "model.yaml", ".");
+  const ConstraintGraph g =
+      dsl::LoadModel(testing::SourcePath("tests/data/models/right-triangle.yaml"));
   for (unsigned seed : {1u, 2u, 3u}) {
     SimulateOptions so;
     so.seed = seed;

@@ -3,6 +3,8 @@
 #include "interp/schedule.h"
 
 #include <catch2/catch.hpp>
+#include <fstream>
+#include <iterator>
 
 #include "dsl/model_loader.h"
 #include "test_util.h"
@@ -118,15 +120,8 @@ constraints:
 // third side's length cannot change along any direction the constraints leave free), and a
 // corner held by coplanarity and two distances joins it.
 TEST_CASE("plan: a triangle made rigid by a right angle is a seed", "[interp]") {
-  const std::string text = R"(points: {a: [0, 0, 0], b: [0.3, 0, 0], c: [0, 0.2, 0], d: [0.25, 0.15, 0]}
-constraints:
-  - distance(a, b) == nominal
-  - distance(a, c) == nominal
-  - perpendicular(b - a, c - a)
-  - coplanar(a, b, c, d)
-  - distance(b, d) == nominal
-  - distance(c, d) == nominal
-)";
+  std::ifstream file(testing::SourcePath("tests/data/models/right-triangle.yaml"));
+  const std::string text((std::istreambuf_iterator<char>(file)), std::istreambuf_iterator<char>());
   const ConstraintGraph g = Model(text);
   const std::vector<std::array<int, 3>> triangles = RigidTriangles(g);
   REQUIRE(!triangles.empty());
