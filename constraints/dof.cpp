@@ -8,14 +8,21 @@
 
 namespace cfuse {
 
-int NumericalRank(const Eigen::MatrixXd& A) {
-  if (A.size() == 0) return 0;
-  Eigen::BDCSVD<Eigen::MatrixXd> svd(A);
-  const Eigen::VectorXd& s = svd.singularValues();
+namespace {
+
+// The singular values (descending) above kRankTolerance * max(1, σ_max).
+int RankOfSingularValues(const Eigen::VectorXd& s) {
   const double threshold = kRankTolerance * std::max(1.0, s.size() ? s[0] : 0.0);
   int rank = 0;
   for (int i = 0; i < s.size(); ++i) rank += s[i] > threshold ? 1 : 0;
   return rank;
+}
+
+}  // namespace
+
+int NumericalRank(const Eigen::MatrixXd& A) {
+  if (A.size() == 0) return 0;
+  return RankOfSingularValues(Eigen::BDCSVD<Eigen::MatrixXd>(A).singularValues());
 }
 
 namespace {
@@ -82,11 +89,7 @@ Eigen::MatrixXd FreeDirections(const ConstraintGraph& graph, const Values& at,
   }
   if (J.rows() == 0) return Eigen::MatrixXd::Identity(n, n);
   Eigen::BDCSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
-  const Eigen::VectorXd& s = svd.singularValues();
-  const double threshold = kRankTolerance * std::max(1.0, s.size() ? s[0] : 0.0);
-  int rank = 0;
-  for (int i = 0; i < s.size(); ++i) rank += s[i] > threshold ? 1 : 0;
-  return svd.matrixV().rightCols(n - rank);
+  return svd.matrixV().rightCols(n - RankOfSingularValues(svd.singularValues()));
 }
 
 std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at) {

@@ -455,7 +455,6 @@ class Interpreter {
   std::vector<Found> Alternatives(const GaussianState& answer, int max_seeds) {
     std::vector<Found> out;
     if (best_matched_ < 0 || seeds_.empty()) return out;
-    // Within what is left of the budget (none after a search the budget ended).
     const int need = best_matched_;
     const int saved_context = best_context_, saved_support = best_seed_support_;
     const double saved_delta = best_delta_;
@@ -492,7 +491,8 @@ class Interpreter {
       // `need`, and may hold one with as many; one searched before found fewer.
       const bool asked_more = i < searched_beyond_.size() && searched_beyond_[i] >= need;
       if ((searched_[i] && !asked_more) || known(seeds_[i])) continue;
-      // (A seed's own matches are fused before the search can stop on the budget.)
+      // Within what is left of the budget (none after a search the budget ended); a seed's own
+      // matches are fused before the search can stop on it.
       if (stats_.nodes + static_cast<long>(seeds_[i].assignment.size()) >= options_.max_nodes) {
         break;
       }
@@ -505,7 +505,7 @@ class Interpreter {
       if (!found_) continue;
       Solution alternative = SolveLabelling(best_assignment_, best_mean_);
       if (!alternative.accepted()) continue;
-      if (!Distinct(g_, alternative.state.mean, answer, ModelExtent(g_))) continue;
+      if (!Distinct(g_, alternative.state.mean, answer, extent_)) continue;
       placed.push_back(alternative.state);
       out.push_back({std::move(alternative), best_context_ == saved_context, best_assignment_});
     }
@@ -937,15 +937,21 @@ class Interpreter {
     std::vector<bool> placed(g_.components.size(), false);
     placed[own] = true;
     int support = 0;
+    if (joints_of_.empty()) {
+      joints_of_.resize(g_.components.size());
+      for (size_t j = 0; j < g_.joints.size(); ++j) {
+        joints_of_[g_.joints[j].parent].push_back(static_cast<int>(j));
+        joints_of_[g_.joints[j].child].push_back(static_cast<int>(j));
+      }
+    }
     std::vector<int> queue = {own};
     for (size_t head = 0; head < queue.size(); ++head) {
       const int c = queue[head];
-      for (size_t j = 0; j < g_.joints.size(); ++j) {
+      for (const int j : joints_of_[c]) {
         const Joint& joint = g_.joints[j];
-        if (joint.parent != c && joint.child != c) continue;
         const int other = joint.parent == c ? joint.child : joint.parent;
         if (placed[other]) continue;
-        const std::vector<Rigid3d>& sweep = JointSweep(static_cast<int>(j));
+        const std::vector<Rigid3d>& sweep = JointSweep(j);
         if (sweep.empty()) continue;
         int most = 0;
         Rigid3d best = seed.placement[c];
@@ -1929,6 +1935,7 @@ class Interpreter {
   FusionOptions joint_fusion_{.max_iterations = 20};
   mutable std::optional<Grid> grid3_, grid2_;
   mutable std::map<int, std::vector<Rigid3d>> sweeps_;                 // JointSweep, by joint
+  mutable std::vector<std::vector<int>> joints_of_;  // per component, its joints (Support)
   mutable std::map<int, std::vector<std::vector<int>>> levels_of_;  // LevelsOf, by plan
   mutable Eigen::MatrixXd distance_;  // between 3D measurements (index3_), for seeds
   mutable Eigen::VectorXd sigma2_;    // their largest variances
@@ -1997,21 +2004,29 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
   if (options.refine_rounds > 0 && search.complete_) {
     solution = search.Refine(&out.assignment, options.refine_rounds, &out.stats.refinements);
   }
-  out.matched = 0;
+  // The matches, and each level's choice in the trace, from the assignment.
+  auto record = [&] {
+    out.matches.assign(set.points.size(), "");
+    out.matched = 0;
+    for (size_t l = 0; l < out.plan.levels.size(); ++l) {
+      const PlanLevel& p = out.plan.levels[l];
+      out.trace[l].chosen = out.assignment[l];
+      if (out.assignment[l] >= 0) {
+        out.matches[out.assignment[l]] = ModelPointName(graph, p.component, p.feature);
+        ++out.matched;
+      }
+    }
+  };
   for (size_t l = 0; l < out.plan.levels.size(); ++l) {
     const PlanLevel& p = out.plan.levels[l];
     TraceLevel t;
     t.constraints = p.constraints;
     t.component = p.component;
     t.feature = p.feature;
-    t.chosen = out.assignment[l];
     t.best = search.best_trace_[l];
     out.trace.push_back(std::move(t));
-    if (out.assignment[l] >= 0) {
-      out.matches[out.assignment[l]] = ModelPointName(graph, p.component, p.feature);
-      ++out.matched;
-    }
   }
+  record();
   if (out.matched > 0) {
     out.solution =
         solution ? std::move(solution) : search.SolveLabelling(out.assignment, search.best_mean_);
@@ -2027,16 +2042,7 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
           *out.solution = std::move(other.solution);
           other.solution = std::move(previous);
           std::swap(out.assignment, other.assignment);
-          out.matches.assign(set.points.size(), "");
-          out.matched = 0;
-          for (size_t l = 0; l < out.plan.levels.size(); ++l) {
-            const PlanLevel& p = out.plan.levels[l];
-            out.trace[l].chosen = out.assignment[l];
-            if (out.assignment[l] >= 0) {
-              out.matches[out.assignment[l]] = ModelPointName(graph, p.component, p.feature);
-              ++out.matched;
-            }
-          }
+          record();
         }
       }
       for (const Interpreter::Found& other : others) {

@@ -1,13 +1,13 @@
 #include "interp/schedule.h"
 
-#include "constraints/dof.h"
-
 #include <fmt/format.h>
 
 #include <algorithm>
 #include <array>
 #include <numeric>
 #include <set>
+
+#include "constraints/dof.h"
 
 namespace cfuse {
 namespace {

@@ -688,7 +688,6 @@ bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& la
   return true;
 }
 
-
 bool Sound(const Solution& s) {
   return s.summary.converged && s.contradictions.empty() && s.invalid.empty();
 }
