@@ -11,6 +11,7 @@
 #include <limits>
 #include <map>
 #include <numeric>
+#include <tuple>
 #include <unordered_map>
 
 #include "interp/closed_form_pose.h"
@@ -51,6 +52,9 @@ constexpr double kConfident = 0.99;
 // An interpretation leaving at most this many model points unmatched ends the opening of
 // further seed sets (Explore).
 constexpr int kLazyNulls = 2;
+// Labellings with a measurement shifted to an unmatched point of its component, per round,
+// the likeliest first.
+constexpr size_t kMaxShifts = 8;
 
 // A model point of the plan: a level's component and feature.
 struct ModelPointRef {
@@ -384,6 +388,11 @@ class Interpreter {
       // points close together (the two faces of a thin plate) of which one is occluded. Matched
       // to the wrong one, the estimate bends to fit it, and re-association alone stays there.
       if (MoveToUnmatched(try_labelling, solution.state, *assignment)) continue;
+      // A corner matched to its neighbour across a narrow part, the neighbour unmatched: the
+      // estimate twists the part to fit, which keeps the corner's own measurement out of
+      // every gate. The measurement moved to the neighbour, the part untwists and
+      // re-association under it finds the corner.
+      if (ShiftToUnmatched(try_labelling, solution.state, *assignment)) continue;
       // Image data: two matched points close together, each inside the other's gate (a thin
       // plate's two faces seen nearly edge-on): a labelling swapped there bends its estimate to
       // fit, and re-association under that estimate keeps it. Each such pair swapped, under
@@ -421,6 +430,42 @@ class Interpreter {
       }
     }
     return changed;
+  }
+
+  template <typename Try>
+  bool ShiftToUnmatched(Try& try_labelling, const GaussianState& state,
+                        const std::vector<int>& assignment) const {
+    // 3D data only: in an image, points far apart in depth project close together, and such
+    // shifts turned refusals into wrong answers (scissors from one camera: 2 more of 50).
+    if (image_) return false;
+    const Context& ctx = contexts_[best_context_];
+    std::vector<Prediction> predicted(levels_);
+    for (int l = 0; l < levels_; ++l) predicted[l] = PredictPoint(ctx.points[l], state).first;
+    // (how near the measurement is to the unmatched point over the two points' distance,
+    // unmatched level, matched level)
+    std::vector<std::tuple<double, int, int>> shifts;
+    for (int n = 0; n < levels_; ++n) {
+      if (assignment[n] >= 0 || !predicted[n].valid) continue;
+      for (int j = 0; j < levels_; ++j) {
+        const int m = assignment[j];
+        if (m < 0 || ctx.points[j].component != ctx.points[n].component) continue;
+        if (!set_.points[m].is_3d || !predicted[j].valid) continue;
+        const double apart = (predicted[n].mean - predicted[j].mean).norm();
+        const double ratio = (set_.points[m].xyz - predicted[n].mean).norm() / apart;
+        // Nearer the unmatched point than twice the two points' distance: it may be that
+        // point's measurement, the estimate bent towards the other.
+        if (ratio < 2) shifts.emplace_back(ratio, n, j);
+      }
+    }
+    std::sort(shifts.begin(), shifts.end());
+    if (shifts.size() > kMaxShifts) shifts.resize(kMaxShifts);
+    for (const auto& [ratio, n, j] : shifts) {
+      std::vector<int> next = assignment;
+      next[n] = next[j];
+      next[j] = -1;
+      if (try_labelling(next)) return true;
+    }
+    return false;
   }
 
   template <typename Try>
