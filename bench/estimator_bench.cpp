@@ -4,12 +4,12 @@
 
 #include <random>
 
-#include "constraints/kinds/equality.h"
-#include "constraints/model_builder.h"
-#include "dsl/model_loader.h"
-#include "kernel/estimator.h"
-#include "kernel/fusion_order.h"
-#include "kernel/measurements/point3.h"
+#include "cfuse/constraints/kinds/equality.h"
+#include "cfuse/constraints/model_builder.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/fusion_order.h"
+#include "cfuse/kernel/measurements/point3.h"
 
 namespace cfuse {
 namespace {

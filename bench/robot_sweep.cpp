@@ -30,12 +30,12 @@
 #include <vector>
 
 #include "bench/sweep_main.h"
-#include "dsl/model_loader.h"
-#include "importers/urdf.h"
-#include "interp/joint_estimates.h"
-#include "interp/parametric.h"
-#include "interp/simulate.h"
-#include "interp/solve.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/parametric.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/interp/solve.h"
 
 namespace {
 

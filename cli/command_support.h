@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "constraints/graph.h"
-#include "kernel/measurements/camera.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/measurements/camera.h"
 
 namespace cfuse::cli {
 

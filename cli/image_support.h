@@ -5,9 +5,9 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "constraints/graph.h"
-#include "kernel/measurements/camera.h"
-#include "kernel/values.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/measurements/camera.h"
+#include "cfuse/kernel/values.h"
 
 namespace cfuse::cli {
 

@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "constraints/dof.h"
-#include "constraints/graph.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/constraints/graph.h"
 
 namespace cfuse::cli {
 

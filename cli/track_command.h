@@ -17,9 +17,9 @@
 #include <iosfwd>
 #include <string>
 
-#include "constraints/graph.h"
-#include "kernel/values.h"
-#include "track/tracker.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/values.h"
+#include "cfuse/track/tracker.h"
 
 namespace cfuse::cli {
 

@@ -5,10 +5,10 @@
 // coverage. An accepted camera must be one the projection can use.
 #include <cmath>
 
-#include "dsl/measurement_reader.h"
+#include "cfuse/dsl/measurement_reader.h"
 #include "fuzz/fuzz_util.h"
-#include "importers/visp.h"
-#include "vision/camera_file.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/vision/camera_file.h"
 
 namespace {
 

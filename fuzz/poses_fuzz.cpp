@@ -3,9 +3,9 @@
 // rigid transform: finite, its rotation a unit quaternion.
 #include <cmath>
 
-#include "dsl/pose_reader.h"
+#include "cfuse/dsl/pose_reader.h"
 #include "fuzz/fuzz_util.h"
-#include "importers/visp.h"
+#include "cfuse/importers/visp.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

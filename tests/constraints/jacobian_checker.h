@@ -6,8 +6,8 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "constraints/evaluate.h"
-#include "constraints/graph.h"
+#include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/graph.h"
 
 namespace cfuse::testing {
 

@@ -1,6 +1,6 @@
 // Measurement files: JSON and YAML read alike; every malformed entry is refused with the file,
 // the line and column, the entry and the problem.
-#include "dsl/measurement_reader.h"
+#include "cfuse/dsl/measurement_reader.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "dsl/measurement_json.h"
+#include "cfuse/dsl/measurement_json.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {

@@ -9,10 +9,10 @@
 #include <fstream>
 #include <string>
 
-#include "importers/cao.h"
-#include "importers/urdf.h"
-#include "importers/visp.h"
-#include "kernel/error.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -4,7 +4,7 @@
 // them; and every malformed file refused at its line and column. The data sets come with the
 // visp-images-data package (scripts/install-deps.sh); without it those cases are skipped, saying
 // so.
-#include "importers/visp.h"
+#include "cfuse/importers/visp.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -18,7 +18,7 @@
 #include <random>
 #include <string>
 
-#include "importers/cao.h"
+#include "cfuse/importers/cao.h"
 #include "test_util.h"
 
 namespace cfuse::importers {

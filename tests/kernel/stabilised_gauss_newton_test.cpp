@@ -15,9 +15,9 @@
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "kernel/estimator.h"
-#include "kernel/evaluate.h"
-#include "kernel/measurements/image_segment.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/measurements/image_segment.h"
 
 namespace cfuse {
 namespace {

@@ -4,20 +4,20 @@
 // asserts the share of frames verified and the errors of the verified ones, over two seeds;
 // then what a tracker must never do: verify a wrong pose from a far-off start, or let a lost
 // frame corrupt the next.
-#include "track/tracker.h"
+#include "cfuse/track/tracker.h"
 
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
 
-#include "dsl/model_loader.h"
-#include "importers/cao.h"
-#include "importers/urdf.h"
-#include "interp/joint_estimates.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/interp/joint_estimates.h"
 #include "test_util.h"
-#include "track/overlay.h"
-#include "vision/sequence.h"
-#include "vision/texture.h"
+#include "cfuse/track/overlay.h"
+#include "cfuse/vision/sequence.h"
+#include "cfuse/vision/texture.h"
 
 namespace cfuse::track {
 namespace {

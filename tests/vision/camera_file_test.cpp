@@ -2,7 +2,7 @@
 // XML and JSON, and a ROS camera_info file, read back into cameras that project exactly as
 // cv::projectPoints does with the same K and coefficients; every refused OpenCV file with the
 // node and message.
-#include "vision/camera_file.h"
+#include "cfuse/vision/camera_file.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "dsl/measurement_reader.h"
+#include "cfuse/dsl/measurement_reader.h"
 #include "test_util.h"
 
 namespace cfuse::vision {

@@ -7,14 +7,14 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "dsl/model_loader.h"
-#include "importers/urdf.h"
-#include "kernel/chi_square.h"
-#include "kernel/error.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
-#include "vision/render.h"
-#include "vision/sequence.h"
-#include "vision/texture.h"
+#include "cfuse/vision/render.h"
+#include "cfuse/vision/sequence.h"
+#include "cfuse/vision/texture.h"
 
 namespace cfuse::vision {
 namespace {
