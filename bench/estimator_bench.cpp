@@ -33,7 +33,7 @@ std::vector<Factor> MeasuredModel(const ConstraintGraph& g, unsigned seed) {
   return factors;
 }
 
-// The measurement factors, then the constraints in the order of kernel/fusion_order.h.
+// The measurement factors, then the constraints in the order of cfuse/kernel/fusion_order.h.
 std::vector<Factor> InFusionOrder(const ConstraintGraph& g, std::vector<Factor> factors) {
   std::vector<Factor> ordered;
   for (int i : GroupGrowthOrder(factors, static_cast<int>(g.blocks.size()))) {

@@ -1,5 +1,5 @@
 // The tracker's benchmark (docs/benchmarks.md "Tracking"): speed, accuracy and robustness on
-// rendered sequences with known truth (vision/sequence.h's standard scenarios at 640 x 480),
+// rendered sequences with known truth (cfuse/vision/sequence.h's standard scenarios at 640 x 480),
 // with ViSP's model-based edge tracker as a peer in the same run when it was built
 // (bench/visp_tracker.h).
 //

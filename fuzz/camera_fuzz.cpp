@@ -1,6 +1,6 @@
 // Fuzz target: camera files, all of their formats: cfuse's own and ROS camera_info (YAML, read by
 // dsl/), OpenCV's calibration files (YAML, XML, JSON, read by cv::FileStorage in vision/ behind
-// its screen, vision/file_storage_screen.h) and ViSP's XML cameras (TinyXML, in importers/).
+// its screen, vision/src/file_storage_screen.h) and ViSP's XML cameras (TinyXML, in importers/).
 // OpenCV's and TinyXML's parsers are not instrumented, so inside them only crashes count, not
 // coverage. An accepted camera must be one the projection can use.
 #include <cmath>

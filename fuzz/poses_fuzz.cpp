@@ -1,5 +1,5 @@
 // Fuzz target: pose files (`--guess`, `--pose`, `--init`): the results format and ViSP's `.pos`
-// (importers/visp.h); and joint-value files (`fk --joints`). An accepted ViSP pose must be a
+// (cfuse/importers/visp.h); and joint-value files (`fk --joints`). An accepted ViSP pose must be a
 // rigid transform: finite, its rotation a unit quaternion.
 #include <cmath>
 

@@ -643,7 +643,7 @@ void ModelBuilder::Merge(const ConstraintGraph& other, const std::string& prefix
 
 ConstraintGraph ModelBuilder::Build() && {
   // A constraint partly implied by those before it keeps its independent rows
-  // (constraints/row_selection.h). Ranks are taken at the nominal geometry, and only when the
+  // (constraints/src/row_selection.h). Ranks are taken at the nominal geometry, and only when the
   // constraints hold there: off the constraint surface, rows that depend on each other on it
   // need not.
   const std::vector<std::vector<int>> kept = IndependentRows(graph_, graph_.nominal);

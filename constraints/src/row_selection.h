@@ -5,8 +5,8 @@
 // the three parallel revolute joints already imply one (the pin's height along their common
 // axis). Fused as a zero-variance measurement, a repeated row makes the update singular, and an
 // image solve then fails or runs away. The model builder keeps each constraint's rows that add
-// rank at the nominal geometry, in graph order (constraints/dof.h), and wraps the constraint's
-// residual in this class; `cfuse check` still names the rows left out.
+// rank at the nominal geometry, in graph order (cfuse/constraints/dof.h), and wraps the
+// constraint's residual in this class; `cfuse check` still names the rows left out.
 #pragma once
 
 #include <memory>

@@ -1,5 +1,5 @@
 // One checker for every Jacobian in cfuse: automatic differentiation against central
-// differences taken through the same chart (kernel/values.h), with the residual first
+// differences taken through the same chart (cfuse/kernel/values.h), with the residual first
 // filled with NaN so that a row a residual forgets to write shows up.
 #pragma once
 

@@ -1,4 +1,4 @@
-// ViSP's files as ViSP writes them (importers/visp.h): the cameras of its data sets' tracker
+// ViSP's files as ViSP writes them (cfuse/importers/visp.h): the cameras of its data sets' tracker
 // settings and of vpXmlParserCamera's files, projecting as ViSP's own model does; its `.pos`
 // poses turned by the exponential map; an assembly of CAO parts placed as ViSP's own test places
 // them; and every malformed file refused at its line and column. The data sets come with the

@@ -1,6 +1,6 @@
-// Lowe's parametric estimator (interp/parametric.h): its Jacobians against finite differences,
-// exact recovery from noise-free data, consistency with its covariance (NEES), limits, the
-// models it refuses, and agreement with constraint fusion on the same data.
+// Lowe's parametric estimator (cfuse/interp/parametric.h): its Jacobians against finite
+// differences, exact recovery from noise-free data, consistency with its covariance (NEES), limits,
+// the models it refuses, and agreement with constraint fusion on the same data.
 #include "cfuse/interp/parametric.h"
 
 #include <catch2/catch.hpp>

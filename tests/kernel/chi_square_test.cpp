@@ -1,4 +1,4 @@
-// The chi-square CDF and quantile (kernel/chi_square.h) against closed forms and each other.
+// The chi-square CDF and quantile (cfuse/kernel/chi_square.h) against closed forms and each other.
 #include "cfuse/kernel/chi_square.h"
 
 #include <catch2/catch.hpp>

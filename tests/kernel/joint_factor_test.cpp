@@ -1,4 +1,4 @@
-// Several constraints fused as one factor (kernel/joint_factor.h): its residual is theirs
+// Several constraints fused as one factor (cfuse/kernel/joint_factor.h): its residual is theirs
 // stacked, its Jacobian matches central differences, and it places a point that one-by-one
 // fusion cannot.
 #include "cfuse/kernel/joint_factor.h"

@@ -1,4 +1,4 @@
-// P3P (vision/p3p.h): the true pose among the solutions, every solution exact, and OpenCV's
+// P3P (cfuse/vision/p3p.h): the true pose among the solutions, every solution exact, and OpenCV's
 // solveP3P as a reference for completeness.
 #include "cfuse/vision/p3p.h"
 

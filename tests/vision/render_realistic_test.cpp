@@ -1,5 +1,5 @@
-// The renderer's realistic style (vision/render.h, vision/texture.h): textures in perspective,
-// the truth against the image, motion blur, the sensor's noise model, determinism, the
+// The renderer's realistic style (cfuse/vision/render.h, cfuse/vision/texture.h): textures in
+// perspective, the truth against the image, motion blur, the sensor's noise model, determinism, the
 // procedural fallback, reading photographs, the hand and the realistic standard sequences.
 #include <catch2/catch.hpp>
 #include <filesystem>

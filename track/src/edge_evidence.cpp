@@ -87,8 +87,8 @@ double Overlap(const EdgeModel& e, const EdgeCandidate& c) {
 
 namespace {
 
-// px: a hit wider than this at half maximum is smeared by motion (vision/normal_search.h: real
-// edges are 2 to 4 px wide); its width beyond is counted as the edge's error.
+// px: a hit wider than this at half maximum is smeared by motion (cfuse/vision/normal_search.h:
+// real edges are 2 to 4 px wide); its width beyond is counted as the edge's error.
 constexpr float kSmearedWidth = 5;
 
 struct Sample {

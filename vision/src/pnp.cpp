@@ -44,7 +44,7 @@ std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
   std::vector<Rigid3d> poses;
   if (camera.model != Camera::Model::kPinhole) return poses;
   // Bearings: the normalised image coordinates, undistorted by OpenCV when the camera has
-  // distortion (its iterative inverse of the model in kernel/measurements/camera.h).
+  // distortion (its iterative inverse of the model in cfuse/kernel/measurements/camera.h).
   std::array<Eigen::Vector2d, 3> xy;
   if (std::all_of(camera.distortion.begin(), camera.distortion.end(),
                   [](double d) { return d == 0; })) {

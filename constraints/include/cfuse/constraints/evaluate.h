@@ -1,4 +1,4 @@
-// Evaluating all the constraints of a graph at once (kernel/evaluate.h evaluates one).
+// Evaluating all the constraints of a graph at once (cfuse/kernel/evaluate.h evaluates one).
 #pragma once
 
 #include <Eigen/Core>

@@ -142,7 +142,7 @@ struct Constraint {
   int slack_block = -1;     // the slack of an inequality (also among `blocks`), or -1
   SourceLocation where;
   // Rows of the relation as written that the constraints before it already imply, left out
-  // of `residual` (constraints/row_selection.h).
+  // of `residual` (constraints/src/row_selection.h).
   int redundant_rows = 0;
 };
 

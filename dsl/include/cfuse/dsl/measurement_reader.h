@@ -27,8 +27,8 @@ MeasurementSet ReadMeasurementsFromString(std::string_view text, const std::stri
 // `camera`, or a ROS camera_info YAML (image_width, image_height, camera_matrix {rows, cols,
 // data}, distortion_model plumb_bob or rational_polynomial, distortion_coefficients; the
 // rectification and projection matrices checked for shape, not used). The checks of
-// kernel/measurements/camera_checks.h apply to both, located at file:line:column. OpenCV's
-// FileStorage files are read by vision/camera_file.h; the CLI picks the reader.
+// cfuse/kernel/measurements/camera_checks.h apply to both, located at file:line:column. OpenCV's
+// FileStorage files are read by cfuse/vision/camera_file.h; the CLI picks the reader.
 Camera ReadCameraFile(const std::string& path);
 Camera ReadCameraFromString(std::string_view text, const std::string& display_name);
 

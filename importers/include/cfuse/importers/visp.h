@@ -10,10 +10,10 @@
 //   u = u0 + px x (1 + kud r²),   v = v0 + py y (1 + kud r²),   r² = x² + y²
 //
 // (perspectiveProjWithDistortion; perspectiveProjWithoutDistortion has kud = 0). That is cfuse's
-// camera (kernel/measurements/camera.h) with fx = px, fy = py, cx = u0, cy = v0, k1 = kud and every
-// other coefficient 0. ViSP also stores kdu, the inverse map (pixels to normalised coordinates,
-// u - u0 scaled by 1 + kdu r²): cfuse never needs it, so it is checked to be a number and not
-// used. ViSP writes cameras in two XML forms:
+// camera (cfuse/kernel/measurements/camera.h) with fx = px, fy = py, cx = u0, cy = v0, k1 = kud and
+// every other coefficient 0. ViSP also stores kdu, the inverse map (pixels to normalised
+// coordinates, u - u0 scaled by 1 + kdu r²): cfuse never needs it, so it is checked to be a number
+// and not used. ViSP writes cameras in two XML forms:
 //
 //   - tracker settings (vpMbGenericTracker::loadConfigFile; ViSP's `mbt` data sets): root
 //     <conf>, the camera in <camera> as <px>, <py>, <u0>, <v0> in any order; the tracker's own
@@ -39,9 +39,9 @@
 // camera with an unknown element too); so is a <kud> in a model without distortion, which ViSP
 // would refuse and a reader might think applied.
 //
-// The checks of kernel/measurements/camera_checks.h apply: px and py positive, every value finite,
-// the principal point within a whole image of a known size. Every problem is an InputError at
-// FILE:LINE:COLUMN: the element at fault, the end of the file for XML left unfinished, TinyXML's
+// The checks of cfuse/kernel/measurements/camera_checks.h apply: px and py positive, every value
+// finite, the principal point within a whole image of a known size. Every problem is an InputError
+// at FILE:LINE:COLUMN: the element at fault, the end of the file for XML left unfinished, TinyXML's
 // place for other XML that is not well formed.
 //
 // POSES. ViSP's tutorials save an object's pose cMo (a vpPoseVector) as six numbers
@@ -49,9 +49,9 @@
 //   tx ty tz θux θuy θuz
 //
 // separated by white space (ViSP writes one a line): the translation in metres and the rotation
-// vector θu in radians, x_camera = Exp(θu) x_object + t (kernel/so3.h ExpSO3). Such files end in
-// `.pos` (`chateau.0.pos`: the object's pose at frame 0). Refused at their place: a token that is
-// not a number, a value that is not finite, fewer or more than six numbers (saying how many), an
+// vector θu in radians, x_camera = Exp(θu) x_object + t (cfuse/kernel/so3.h ExpSO3). Such files end
+// in `.pos` (`chateau.0.pos`: the object's pose at frame 0). Refused at their place: a token that
+// is not a number, a value that is not finite, fewer or more than six numbers (saying how many), an
 // empty file, and a rotation of more than 2π (ViSP writes angles in [0, π]; beyond 2π the numbers
 // are not radians, and far beyond, the rotation is lost to rounding or overflow).
 #pragma once

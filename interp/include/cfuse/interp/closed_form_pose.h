@@ -10,7 +10,8 @@
 //    Coplanar points fix the rotation only up to the mirror image about the image plane (the
 //    Necker reversal, unavoidable under orthography); the solution whose plane normal points
 //    towards the camera is returned.
-// (Pinhole cameras use OpenCV's SQPnP, and P3P for three points: vision/pnp.h, vision/p3p.h.)
+// (Pinhole cameras use OpenCV's SQPnP, and P3P for three points: cfuse/vision/pnp.h,
+// cfuse/vision/p3p.h.)
 #pragma once
 
 #include <Eigen/Core>

@@ -39,7 +39,7 @@
 // (a joint's angle). Once the waiting constraints whose other points are matched determine the
 // point (their gradients span all three directions), it is placed where they hold best (a
 // small Levenberg-Marquardt solve) and they are fused together as one factor
-// (kernel/joint_factor.h): fused one at a time, a distance and a parallel axis that meet
+// (cfuse/kernel/joint_factor.h): fused one at a time, a distance and a parallel axis that meet
 // tangentially make the second one's iterations diverge. A leaf fuses whatever still waits.
 //
 // Seeds. Under the vague prior a pose is unknown, so gating the first points of the tree means
@@ -193,7 +193,7 @@ struct Interpretation {
   SearchStats stats;
   FusionPlan plan;
   std::vector<TraceLevel> trace;
-  // The estimate from the matches (interp/solve.h), when at least one point was matched.
+  // The estimate from the matches (cfuse/interp/solve.h), when at least one point was matched.
   std::optional<Solution> solution;
 
   // Why the matches are no answer, or "" when they are one. Besides an estimate that is not

@@ -1,5 +1,5 @@
 // Joint variables read off an estimate of the component poses: each joint's value is a
-// function of its two components' poses (constraints/kinds/joint_residual.h, on the branch
+// function of its two components' poses (cfuse/constraints/kinds/joint_residual.h, on the branch
 // centred on its limits), and their covariance is J P Jᵀ with P the poses' covariance.
 // Results (`joints`), the benchmarks and the tests all read joints this way, whichever
 // estimator produced the poses.

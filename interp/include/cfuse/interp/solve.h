@@ -15,8 +15,8 @@
 //     positions, 1 rad for rotations, 10 for slacks): its weight next to a 2 mm measurement of
 //     a 30 cm model is about 1e-7.
 //  4. The measurements (in file order; a rigid component's together, in one update), then the
-//     constraints (in the order of kernel/fusion_order.h, which keeps the updates small), fused
-//     by FuseSequence (kernel/estimator.h) until every
+//     constraints (in the order of cfuse/kernel/fusion_order.h, which keeps the updates
+//     small), fused by FuseSequence (cfuse/kernel/estimator.h) until every
 //     constraint holds to 1e-8 x the model's extent. (Gauss-Newton passes reach about 1e-9 x
 //     the extent before roundoff dominates when points are occluded: the vague prior then
 //     leaves the covariance ill-conditioned.)
@@ -60,7 +60,7 @@ struct SolveOptions {
   // and the rest solved again, a fifth of them at most (Solution::rejected). Off by default:
   // the interpretation tree gates its matches itself.
   bool reject_outliers = false;
-  // The fit (kernel/fit_analysis.h) below which a solution is refused: the chance that
+  // The fit (cfuse/kernel/fit_analysis.h) below which a solution is refused: the chance that
   // measurements with the stated noise fit the model this badly.
   double min_p_value = 1e-3;
   // From image measurements, without a guess: solved again from the other closed-form start
@@ -90,7 +90,7 @@ struct Solution {
   std::vector<Rejection> rejected;  // gross outliers left out (SolveOptions::reject_outliers)
   double extent = 0;                // the model's size, for relative tolerances
   // The measurements' chi-square at the estimate and the directions they leave free
-  // (kernel/fit_analysis.h); `undetermined` names the components and joints those move.
+  // (cfuse/kernel/fit_analysis.h); `undetermined` names the components and joints those move.
   FitAnalysis analysis;
   std::vector<std::string> undetermined;
   bool fits = true;  // analysis.fit.p_value >= SolveOptions::min_p_value

@@ -1,6 +1,6 @@
 // Internal contract checks (error tier 2 of 3).
 //
-// Tier 1, bad user input, is kernel/error.h's InputError. Tier 3, solver and search outcomes,
+// Tier 1, bad user input, is cfuse/kernel/error.h's InputError. Tier 3, solver and search outcomes,
 // are status structs. A failed CFUSE_CHECK is a bug in cfuse, never the user's fault: it throws
 // InternalError with the source location so that the CLI can report it and exit non-zero
 // instead of aborting with half-written output.

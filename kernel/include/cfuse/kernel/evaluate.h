@@ -2,7 +2,7 @@
 //
 // The Jacobian is with respect to the tangent coordinates of each slot (values.h): column
 // block k holds d r / d ε_k, the perturbation ε_k of slot k's block, columns in slot order.
-// It is computed by forward-mode automatic differentiation (kernel/jet.h), in passes of at
+// It is computed by forward-mode automatic differentiation (cfuse/kernel/jet.h), in passes of at
 // most kJetMaxDerivatives tangent coordinates.
 //
 // Optionally the blocks are first moved by a tangent offset δ in the chart of `values`

@@ -50,7 +50,7 @@ class JointResidual : public AutoDiffResidual<JointResidual> {
     std::array<BlockState<T>, kMaxPartSlots> local;
     for (const Part& p : parts_) {
       if constexpr (std::is_same_v<T, Jet>) {
-        // A Jacobian is taken a few tangent coordinates at a time (kernel/jet.h); a part that
+        // A Jacobian is taken a few tangent coordinates at a time (cfuse/kernel/jet.h); a part that
         // touches none of them is evaluated in doubles, its derivatives zero: the same values,
         // at a fraction of the cost.
         if (!Seeded(p, x)) {

@@ -9,7 +9,7 @@
 //   void Compute(std::span<const BlockState<T>> x, T* residual) const;
 //
 // Convert constants with T(k). The Jacobian with respect to each slot's tangent coordinates
-// (see values.h for the chart) comes from constraints/evaluate.h, never from hand derivation.
+// (see values.h for the chart) comes from cfuse/constraints/evaluate.h, never from hand derivation.
 #pragma once
 
 #include <Eigen/Core>

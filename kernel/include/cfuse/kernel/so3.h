@@ -1,4 +1,4 @@
-// Rotations templated on the scalar, so that automatic differentiation (kernel/jet.h) passes
+// Rotations templated on the scalar, so that automatic differentiation (cfuse/kernel/jet.h) passes
 // through them. Conventions, used everywhere in cfuse:
 //   - rotation matrices act on column vectors: x_in_a = a_R_b * x_in_b;
 //   - quaternions are stored [w, x, y, z] (Hamilton, w the real part);

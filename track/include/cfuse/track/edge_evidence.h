@@ -4,13 +4,13 @@
 //
 // Two sources, measured against each other in docs/benchmarks.md:
 //  - Normal search (the default): every predicted piece sampled every `sample_step` px, a 1D
-//    search along the normal at each sample (vision/normal_search.h) as far as 3.5 standard
+//    search along the normal at each sample (cfuse/vision/normal_search.h) as far as 3.5 standard
 //    deviations of the prediction reach, and the hits grouped into lines by a Hough vote over
 //    the lines the prediction allows (offset and slope relative to the predicted piece); each
 //    line with enough samples behind it, least-squares fitted to its hits, is a candidate. Only
 //    the pixels around the predicted outline are read.
 //  - Segments: Lowe's segments detected over the window the edges can reach
-//    (vision/segments.h), each near an edge at about its angle a candidate.
+//    (cfuse/vision/segments.h), each near an edge at about its angle a candidate.
 // A candidate's measurement is the line through its two ends with the covariance of their
 // distances across the edge: for a normal-search line, that of the least-squares fit (hit
 // noise from the fit's own scatter, at least `min_hit_sigma`), which carries what all its hits

@@ -5,7 +5,7 @@
 // Frames: a piece's ends A, B are in its component's coordinates (so that a residual can move
 // them with the component's pose); its image ends a, b in pixels. a -> b follows the model
 // edge's own order of points and the normal is n = (-dir.y, dir.x) (the image-segment
-// residual's, kernel/measurements/image_segment.h), so that the side a normal points to stays
+// residual's, cfuse/kernel/measurements/image_segment.h), so that the side a normal points to stays
 // the same side of the edge from frame to frame.
 #pragma once
 

@@ -13,14 +13,14 @@
 //     the acceleration, which grows with the speed); the model's constraints are fused into it,
 //     so that the prior lives on the model's own configurations (7 DOF for the hinged box).
 //  2. Edges. The model's visible pieces at the prediction, hidden lines removed
-//     (vision/model_edges.h), each with the variance of where the image shows it, S = A P Aᵀ
-//     (track/edge_prediction.h).
+//     (cfuse/vision/model_edges.h), each with the variance of where the image shows it, S = A P Aᵀ
+//     (cfuse/track/edge_prediction.h).
 //  3. Evidence. Candidate image lines for each edge with Lowe's probabilities
-//     (track/edge_evidence.h): by default searched along the predicted edges' normals, only
+//     (cfuse/track/edge_evidence.h): by default searched along the predicted edges' normals, only
 //     around the predicted outline; or segments detected in the window the edges can reach.
 //  4. Search. Lowe's best-first search over match sets with the residual test
-//     (track/match_search.h); a set that passes is extended and verified.
-//  5. Verification (track/verification.h): a grey-level step at the remembered polarity along
+//     (cfuse/track/match_search.h); a set that passes is extended and verified.
+//  5. Verification (cfuse/track/verification.h): a grey-level step at the remembered polarity along
 //     the whole visible outline, far beyond what chance gives in this frame, on every part in
 //     view. The best verified set is the frame's estimate.
 //  6. Recovery. With no set verified, the search range doubles and the frame is tried again,
@@ -54,7 +54,7 @@
 
 namespace cfuse::track {
 
-// Where edge evidence comes from (track/edge_evidence.h).
+// Where edge evidence comes from (cfuse/track/edge_evidence.h).
 enum class EdgeEvidence { kNormalSearch, kSegments };
 
 struct TrackerOptions {
@@ -120,7 +120,7 @@ struct TrackerOptions {
   MatchSearchOptions search;
   EvidenceOptions evidence_options;
   VerificationOptions verification;
-  // Which edges are matched (vision/model_edges.h): those of faces turned at least 80 degrees
+  // Which edges are matched (cfuse/vision/model_edges.h): those of faces turned at least 80 degrees
   // from edge-on and 6 px across or more, hidden lines removed. A thin plate's rim or a face
   // seen nearly edge-on puts its edges within a pixel or two of each other, and a line matched
   // to the wrong one of such twins bends the estimate.

@@ -15,13 +15,13 @@
 //   fisheye_model              (the tutorial's flag) must be 0 when present: a fisheye
 //                              calibration's coefficients are another model
 //
-// every other node is ignored. The checks of kernel/measurements/camera_checks.h apply: no skew,
-// no tilt (tau_x = tau_y = 0), a principal point within a whole image of the image. Every
+// every other node is ignored. The checks of cfuse/kernel/measurements/camera_checks.h apply: no
+// skew, no tilt (tau_x = tau_y = 0), a principal point within a whole image of the image. Every
 // problem is an InputError at the file and the node, e.g. `cam.yml: camera_matrix: error:
 // missing` (cv::FileStorage keeps no line numbers for nodes); a syntax error carries the line
 // OpenCV reports. Text whose structure is incomplete or not well formed (an unclosed tag,
 // string or bracket, an unquoted XML attribute), on which OpenCV's parsers may crash, is refused
-// at its line and column before OpenCV sees it (vision/file_storage_screen.h).
+// at its line and column before OpenCV sees it (vision/src/file_storage_screen.h).
 #pragma once
 
 #include <string>

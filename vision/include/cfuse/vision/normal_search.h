@@ -14,7 +14,7 @@
 // at k - 1, k, k + 1 (an ideal step between pixels k and k + 1 is found at k + 0.5). Its width
 // is that of |D| above half its peak: about 2 px for a sharp step, 2 to 4 for a real edge, the
 // motion for a step smeared by motion blur (whose |D| is a plateau: where on it the peak falls
-// is noise, which the tracker counts in the edge's error, track/edge_evidence.h). (Placing a
+// is noise, which the tracker counts in the edge's error, cfuse/track/edge_evidence.h). (Placing a
 // wide step at its plateau's centroid was tried: it follows the shaded side of real edges,
 // whose profiles are not symmetric, and moved a real close-up's track by 10 mm.) The run's width is
 // the hit's: about 2 px for a sharp step, the motion for a blurred one. Its polarity is the sign

@@ -17,10 +17,10 @@ bool PoseFromProjections(const Camera& camera, const std::vector<Eigen::Vector3d
                          const std::vector<Eigen::Vector2d>& image_points,
                          Rigid3d* camera_from_object);
 
-// Up to four poses camera_from_object from exactly three correspondences (vision/p3p.h, on
+// Up to four poses camera_from_object from exactly three correspondences (cfuse/vision/p3p.h, on
 // bearings undistorted by OpenCV): the seed hypotheses of the interpretation tree for image data.
 // Empty for an orthographic camera or a degenerate triple. Fits PosesFromThreeProjections
-// (interp/interpretation.h).
+// (cfuse/interp/interpretation.h).
 std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
                                                const std::array<Eigen::Vector3d, 3>& object_points,
                                                const std::array<Eigen::Vector2d, 3>& image_points);

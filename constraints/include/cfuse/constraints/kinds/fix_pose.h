@@ -1,6 +1,6 @@
 // A rigid component's pose (or only its position or orientation) known in the world:
 //   position:    r = t - t*                              (3 rows, metres)
-//   orientation: r = RotationError(R*ᵀ R)                (3 rows, radians; kernel/so3.h)
+//   orientation: r = RotationError(R*ᵀ R)                (3 rows, radians; cfuse/kernel/so3.h)
 #pragma once
 
 #include <fmt/format.h>

@@ -1,13 +1,13 @@
 // The consistency checks every camera reader applies (docs/formats.md "Cameras"): cfuse's own
-// camera object, OpenCV calibration files (vision/camera_file.h) and ROS camera_info files
-// (dsl/measurement_reader.h) refuse the same things with the same words.
+// camera object, OpenCV calibration files (cfuse/vision/camera_file.h) and ROS camera_info files
+// (cfuse/dsl/measurement_reader.h) refuse the same things with the same words.
 //
 // A pinhole camera matrix must be
 //       [fx  0 cx]
 //   K = [ 0 fy cy]      fx, fy > 0, every entry finite,
 //       [ 0  0  1]
-// and the skew K[0][1] must be 0: cfuse's camera (kernel/measurements/camera.h) has no skew term.
-// OpenCV's calibrateCamera never estimates one; a file with one was made by another tool, and
+// and the skew K[0][1] must be 0: cfuse's camera (cfuse/kernel/measurements/camera.h) has no skew
+// term. OpenCV's calibrateCamera never estimates one; a file with one was made by another tool, and
 // silently dropping it would move every projected point by skew * y'.
 //
 // Distortion: OpenCV's 0, 4, 5, 8, 12 or 14 coefficients, the tilted-sensor pair tau_x, tau_y
