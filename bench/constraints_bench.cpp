@@ -3,9 +3,9 @@
 #include <benchmark/benchmark.h>
 #include <fmt/format.h>
 
-#include "constraints/dof.h"
-#include "constraints/evaluate.h"
-#include "dsl/model_loader.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/constraints/evaluate.h"
+#include "cfuse/dsl/model_loader.h"
 
 namespace cfuse {
 namespace {

@@ -4,12 +4,12 @@
 
 #include <random>
 
-#include "constraints/kinds/equality.h"
-#include "constraints/model_builder.h"
-#include "dsl/model_loader.h"
-#include "kernel/estimator.h"
-#include "kernel/fusion_order.h"
-#include "kernel/measurements/point3.h"
+#include "cfuse/constraints/kinds/equality.h"
+#include "cfuse/constraints/model_builder.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/fusion_order.h"
+#include "cfuse/kernel/measurements/point3.h"
 
 namespace cfuse {
 namespace {
@@ -33,7 +33,7 @@ std::vector<Factor> MeasuredModel(const ConstraintGraph& g, unsigned seed) {
   return factors;
 }
 
-// The measurement factors, then the constraints in the order of kernel/fusion_order.h.
+// The measurement factors, then the constraints in the order of cfuse/kernel/fusion_order.h.
 std::vector<Factor> InFusionOrder(const ConstraintGraph& g, std::vector<Factor> factors) {
   std::vector<Factor> ordered;
   for (int i : GroupGrowthOrder(factors, static_cast<int>(g.blocks.size()))) {

@@ -40,12 +40,12 @@
 #include <vector>
 
 #include "bench/sweep_main.h"
-#include "dsl/model_loader.h"
-#include "interp/interpretation.h"
-#include "interp/simulate.h"
-#include "interp/solve.h"
-#include "vision/pnp.h"
-#include "vision/sequence.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/interpretation.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/vision/pnp.h"
+#include "cfuse/vision/sequence.h"
 
 namespace {
 

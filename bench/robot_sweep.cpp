@@ -9,8 +9,8 @@
 // motion-capture rig would), then for every noise level simulates TRIALS configurations (seeds
 // 100, 101, ...: joint variables uniform over the middle 80 % of their limits, a random base
 // pose, the markers measured in 3D with that noise), and solves each with
-//   - fusion: constraint fusion (interp/solve.h), every joint a constraint;
-//   - parametric: Lowe's estimator on root poses and joint variables (interp/parametric.h);
+//   - fusion: constraint fusion (cfuse/interp/solve.h), every joint a constraint;
+//   - parametric: Lowe's estimator on root poses and joint variables (cfuse/interp/parametric.h);
 //   - components: every component from its own markers alone, joints read off the poses.
 // It prints a Markdown row per model, noise level and method: the trials that converged, the
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
@@ -30,12 +30,12 @@
 #include <vector>
 
 #include "bench/sweep_main.h"
-#include "dsl/model_loader.h"
-#include "importers/urdf.h"
-#include "interp/joint_estimates.h"
-#include "interp/parametric.h"
-#include "interp/simulate.h"
-#include "interp/solve.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/parametric.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/interp/solve.h"
 
 namespace {
 

@@ -22,11 +22,11 @@
 #include <vector>
 
 #include "bench/sweep_main.h"
-#include "dsl/model_loader.h"
-#include "interp/simulate.h"
-#include "vision/render.h"
-#include "vision/segment_index.h"
-#include "vision/segments.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/vision/render.h"
+#include "cfuse/vision/segment_index.h"
+#include "cfuse/vision/segments.h"
 
 namespace {
 

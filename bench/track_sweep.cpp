@@ -1,5 +1,5 @@
 // The tracker's benchmark (docs/benchmarks.md "Tracking"): speed, accuracy and robustness on
-// rendered sequences with known truth (vision/sequence.h's standard scenarios at 640 x 480),
+// rendered sequences with known truth (cfuse/vision/sequence.h's standard scenarios at 640 x 480),
 // with ViSP's model-based edge tracker as a peer in the same run when it was built
 // (bench/visp_tracker.h).
 //
@@ -30,12 +30,12 @@
 
 #include "bench/sweep_main.h"
 #include "bench/tracker_ablation.h"
-#include "dsl/model_loader.h"
-#include "importers/cao.h"
-#include "interp/joint_estimates.h"
-#include "track/tracker.h"
-#include "vision/sequence.h"
-#include "vision/texture.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/track/tracker.h"
+#include "cfuse/vision/sequence.h"
+#include "cfuse/vision/texture.h"
 #ifdef CFUSE_HAVE_VISP
 #include "bench/visp_tracker.h"
 #endif

@@ -10,7 +10,7 @@
 #include <stdexcept>
 #include <string>
 
-#include "track/tracker.h"
+#include "cfuse/track/tracker.h"
 
 namespace cfuse::bench {
 

@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "kernel/measurements/camera.h"
-#include "kernel/rigid3.h"
+#include "cfuse/kernel/measurements/camera.h"
+#include "cfuse/kernel/rigid3.h"
 
 namespace cfuse::bench {
 

@@ -8,14 +8,14 @@
 #include <filesystem>
 #include <fstream>
 
-#include "dsl/measurement_reader.h"
-#include "dsl/model_loader.h"
-#include "importers/cao.h"
-#include "importers/urdf.h"
-#include "importers/visp.h"
-#include "kernel/check.h"
-#include "kernel/error.h"
-#include "vision/camera_file.h"
+#include "cfuse/dsl/measurement_reader.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/kernel/check.h"
+#include "cfuse/kernel/error.h"
+#include "cfuse/vision/camera_file.h"
 
 namespace cfuse::cli {
 

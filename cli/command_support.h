@@ -8,8 +8,8 @@
 #include <string>
 #include <vector>
 
-#include "constraints/graph.h"
-#include "kernel/measurements/camera.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/measurements/camera.h"
 
 namespace cfuse::cli {
 
@@ -18,13 +18,13 @@ namespace cfuse::cli {
 int Guarded(std::ostream& err, const std::function<int()>& body);
 
 // A model from a file, by its extension: .yaml/.yml (the DSL, whose `include:` reads .urdf
-// and .cao files too), .urdf (importers/urdf.h) or .cao (importers/cao.h).
+// and .cao files too), .urdf (cfuse/importers/urdf.h) or .cao (cfuse/importers/cao.h).
 ConstraintGraph LoadAnyModel(const std::string& path);
 
 // A camera from a file of any supported format (docs/formats.md "Cameras"): ViSP's XML (tracker
-// settings or vpXmlParserCamera, importers/visp.h, recognised by the root element <conf> or
-// <root>), an OpenCV FileStorage calibration (vision/camera_file.h, recognised by its first
-// bytes), else cfuse's camera object or a ROS camera_info YAML (dsl/measurement_reader.h). A
+// settings or vpXmlParserCamera, cfuse/importers/visp.h, recognised by the root element <conf> or
+// <root>), an OpenCV FileStorage calibration (cfuse/vision/camera_file.h, recognised by its first
+// bytes), else cfuse's camera object or a ROS camera_info YAML (cfuse/dsl/measurement_reader.h). A
 // ViSP camera may have no image size (width and height 0): each command says what it takes
 // instead, or refuses it.
 Camera LoadAnyCamera(const std::string& path);

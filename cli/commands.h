@@ -2,8 +2,8 @@
 // to write to, and returns the process exit status:
 //   0  success
 //   1  a search or solve found no acceptable answer (from the estimator issues on)
-//   2  bad input: the message names the file and the place (kernel/error.h)
-//   3  internal error: a bug in cfuse (kernel/check.h)
+//   2  bad input: the message names the file and the place (cfuse/kernel/error.h)
+//   3  internal error: a bug in cfuse (cfuse/kernel/check.h)
 #pragma once
 
 #include <iosfwd>
@@ -38,7 +38,7 @@ struct SolveCommandOptions {
   std::string guess;   // results-format file of starting poses; empty: closed-form starts
   std::string output;  // empty: stdout
   // "fusion" (constraint fusion), "parametric" (Lowe's estimator on root poses and joint
-  // variables: interp/parametric.h) or "components" (each component alone, no constraints
+  // variables: cfuse/interp/parametric.h) or "components" (each component alone, no constraints
   // between them): the baselines of docs/benchmarks.md.
   std::string method = "fusion";
 };

@@ -19,14 +19,14 @@
 #include "cli/image_support.h"
 #include "cli/results.h"
 #include "cli/track_command.h"
-#include "dsl/pose_reader.h"
-#include "interp/solve.h"
-#include "kernel/error.h"
-#include "vision/model_edges.h"
-#include "vision/render.h"
-#include "vision/segments.h"
-#include "vision/sequence.h"
-#include "vision/texture.h"
+#include "cfuse/dsl/pose_reader.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/kernel/error.h"
+#include "cfuse/vision/model_edges.h"
+#include "cfuse/vision/render.h"
+#include "cfuse/vision/segments.h"
+#include "cfuse/vision/sequence.h"
+#include "cfuse/vision/texture.h"
 
 namespace cfuse::cli {
 namespace {

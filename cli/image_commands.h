@@ -36,7 +36,7 @@ struct RenderCommandOptions {
   std::string model;
   std::string camera;
   std::string pose;
-  // A standard tracking sequence instead of one pose (vision/sequence.h: steady, fast,
+  // A standard tracking sequence instead of one pose (cfuse/vision/sequence.h: steady, fast,
   // occluded, clutter, jump or hand): `output` is then a new directory, filled with
   // frame_NNNNN.png, truth.csv (the track format, cli/track_command.h) and init.json (frame 0's
   // poses); the sequence's own clutter, noise and blur apply.
@@ -47,7 +47,7 @@ struct RenderCommandOptions {
   unsigned seed = 1;
   double noise = 2.0, blur = 0.8;
   int clutter_lines = 30, clutter_blobs = 12;
-  // vision/render.h's style: "plain" or "realistic". The realistic style prints `photographs`
+  // cfuse/vision/render.h's style: "plain" or "realistic". The realistic style prints `photographs`
   // (image files or directories) on the faces and behind them; none given: Debian's
   // visp-images-data photographs if installed, else procedural cards. `noise` is then the
   // sensor's read noise.

@@ -14,11 +14,11 @@
 #include <opencv2/imgproc.hpp>
 #include <set>
 
-#include "dsl/pose_reader.h"
-#include "importers/visp.h"
-#include "interp/solve.h"
-#include "kernel/error.h"
-#include "kernel/measurements/camera_checks.h"
+#include "cfuse/dsl/pose_reader.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/kernel/error.h"
+#include "cfuse/kernel/measurements/camera_checks.h"
 
 namespace cfuse::cli {
 namespace {

@@ -5,9 +5,9 @@
 #include <opencv2/core.hpp>
 #include <string>
 
-#include "constraints/graph.h"
-#include "kernel/measurements/camera.h"
-#include "kernel/values.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/measurements/camera.h"
+#include "cfuse/kernel/values.h"
 
 namespace cfuse::cli {
 
@@ -29,8 +29,8 @@ class QuietStderr {
 
 // A camera without an image size (ViSP's tracker settings give none) takes `image`'s, the image
 // named `source` in messages; then checked as a camera file with that size would be
-// (kernel/measurements/camera_checks.h), refused at `camera_file` when its principal point is a
-// whole image away.
+// (cfuse/kernel/measurements/camera_checks.h), refused at `camera_file` when its principal point is
+// a whole image away.
 void SizeCameraFromImage(const cv::Mat& image, const std::string& source,
                          const std::string& camera_file, Camera* camera);
 
@@ -39,7 +39,7 @@ std::string PngBytes(const cv::Mat& image);
 
 // The model at the poses of a results-format file: every rigid component placed there
 // (itself, or through a frame on it), or an InputError naming the first one that is not. A
-// `.pos` file is ViSP's pose of the object instead (importers/visp.h): camera_from_object T
+// `.pos` file is ViSP's pose of the object instead (cfuse/importers/visp.h): camera_from_object T
 // places the model's frame, every component at T ∘ its nominal pose and every single point at
 // T applied to its nominal position, so a model of several components moves rigidly.
 Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file);

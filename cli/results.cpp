@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "interp/joint_estimates.h"
+#include "cfuse/interp/joint_estimates.h"
 
 namespace cfuse::cli {
 namespace {

@@ -5,10 +5,10 @@
 
 #include <nlohmann/json.hpp>
 
-#include "constraints/graph.h"
-#include "interp/solve.h"
-#include "kernel/measurement_set.h"
-#include "kernel/values.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/kernel/measurement_set.h"
+#include "cfuse/kernel/values.h"
 
 namespace cfuse::cli {
 

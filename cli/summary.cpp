@@ -7,7 +7,7 @@
 #include <cmath>
 #include <ostream>
 
-#include "constraints/evaluate.h"
+#include "cfuse/constraints/evaluate.h"
 
 namespace cfuse::cli {
 

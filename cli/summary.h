@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "constraints/dof.h"
-#include "constraints/graph.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/constraints/graph.h"
 
 namespace cfuse::cli {
 
@@ -17,7 +17,7 @@ struct Violation {
   std::string formula;
   double residual = 0;  // largest |r_i| at the nominal geometry
   SourceLocation where;
-  // The constraints before it that it repeats in part (constraints/dof.h,
+  // The constraints before it that it repeats in part (cfuse/constraints/dof.h,
   // ImplyingConstraints), with their formulas: those it contradicts where they hold.
   std::vector<std::pair<std::string, std::string>> repeats;
   bool repeats_hold = false;  // every one of them holds at the nominal geometry

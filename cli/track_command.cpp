@@ -20,12 +20,12 @@
 
 #include "cli/command_support.h"
 #include "cli/image_support.h"
-#include "interp/joint_estimates.h"
-#include "interp/solve.h"
-#include "kernel/chi_square.h"
-#include "kernel/error.h"
-#include "track/overlay.h"
-#include "track/tracker.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/error.h"
+#include "cfuse/track/overlay.h"
+#include "cfuse/track/tracker.h"
 
 namespace cfuse::cli {
 namespace {

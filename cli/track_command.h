@@ -1,4 +1,4 @@
-// `cfuse track`: a model tracked through an image sequence (track/tracker.h), and the track
+// `cfuse track`: a model tracked through an image sequence (cfuse/track/tracker.h), and the track
 // file it writes (docs/formats.md "Tracks"):
 //
 //   cfuse track MODEL --camera CAM --images 'frames/*.png' --init POSE.json
@@ -11,15 +11,15 @@
 //
 // The frames must be of the camera's image size; a camera that gives none (ViSP's tracker
 // settings) takes the first frame's, and a later frame of another size is skipped. --init is a
-// results-format pose file, or ViSP's pose of the object in a `.pos` file (importers/visp.h).
+// results-format pose file, or ViSP's pose of the object in a `.pos` file (cfuse/importers/visp.h).
 #pragma once
 
 #include <iosfwd>
 #include <string>
 
-#include "constraints/graph.h"
-#include "kernel/values.h"
-#include "track/tracker.h"
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/values.h"
+#include "cfuse/track/tracker.h"
 
 namespace cfuse::cli {
 

@@ -1,16 +1,27 @@
 # cfuse_add_library(NAME <module> SOURCES ... HEADERS ... PUBLIC_LINKS ... PRIVATE_LINKS ...)
-# Defines target cfuse_<module>, alias cfuse::<module>, installs it and its headers under
-# include/cfuse/<module>/. In-tree and installed code include headers as "<module>/<file>.h".
+# Defines target cfuse_<module>, alias cfuse::<module>, and installs it. A module's folder holds
+#   include/cfuse/<module>/  its public headers, included everywhere as "cfuse/<module>/<file>.h"
+#                            and installed, sub-folders kept, under include/cfuse/<module>/;
+#   src/                     its sources and internal headers; an internal header is included as
+#                            "<file>.h" (relative to src/, a private include directory) and is
+#                            not installed.
+# SOURCES are relative to the module's folder (src/<file>.cpp, and the internal headers as
+# src/<file>.h, so that IDEs list them); HEADERS are relative to include/cfuse/<module>/. Every
+# header under include/ must be in HEADERS, and every one under src/ in SOURCES.
 function(cfuse_add_library)
   cmake_parse_arguments(ARG "" "NAME" "SOURCES;HEADERS;PUBLIC_LINKS;PRIVATE_LINKS" ${ARGN})
   set(target cfuse_${ARG_NAME})
-  add_library(${target} ${ARG_SOURCES} ${ARG_HEADERS})
+  set(public_dir ${CMAKE_CURRENT_SOURCE_DIR}/include/cfuse/${ARG_NAME})
+  list(TRANSFORM ARG_HEADERS PREPEND ${public_dir}/ OUTPUT_VARIABLE public_headers)
+  _cfuse_check_listed("${public_dir}" "${public_headers}" HEADERS)
+  _cfuse_check_listed("${CMAKE_CURRENT_SOURCE_DIR}/src" "${ARG_SOURCES}" SOURCES)
+  add_library(${target} ${ARG_SOURCES} ${public_headers})
   add_library(cfuse::${ARG_NAME} ALIAS ${target})
   set_target_properties(${target} PROPERTIES OUTPUT_NAME cfuse_${ARG_NAME} EXPORT_NAME ${ARG_NAME})
-  target_include_directories(${target} PUBLIC
-    $<BUILD_INTERFACE:${PROJECT_SOURCE_DIR}>
-    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}/cfuse>
-    $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>)
+  target_include_directories(${target}
+    PUBLIC $<BUILD_INTERFACE:${CMAKE_CURRENT_SOURCE_DIR}/include>
+           $<INSTALL_INTERFACE:${CMAKE_INSTALL_INCLUDEDIR}>
+    PRIVATE ${CMAKE_CURRENT_SOURCE_DIR}/src)
   target_link_libraries(${target} PUBLIC ${ARG_PUBLIC_LINKS} PRIVATE ${ARG_PRIVATE_LINKS})
   cfuse_set_warnings(${target})
   install(TARGETS ${target} EXPORT cfuseTargets
@@ -19,8 +30,22 @@ function(cfuse_add_library)
     RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
   foreach(header ${ARG_HEADERS})
     get_filename_component(dir ${header} DIRECTORY)
-    install(FILES ${header} DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/cfuse/${ARG_NAME}/${dir})
+    install(FILES ${public_dir}/${header}
+            DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/cfuse/${ARG_NAME}/${dir})
   endforeach()
+endfunction()
+
+# Fails the configuration when a header under <dir> is missing from <listed> (absolute paths, or
+# relative to the current source folder): a public header left out would not be installed.
+function(_cfuse_check_listed dir listed keyword)
+  file(GLOB_RECURSE found CONFIGURE_DEPENDS ${dir}/*.h)
+  list(TRANSFORM listed PREPEND ${CMAKE_CURRENT_SOURCE_DIR}/ REGEX "^[^/]")
+  if(listed)
+    list(REMOVE_ITEM found ${listed})
+  endif()
+  if(found)
+    message(FATAL_ERROR "cfuse_add_library(${ARG_NAME}): not listed in ${keyword}: ${found}")
+  endif()
 endfunction()
 
 function(cfuse_set_warnings target)

@@ -1,14 +1,14 @@
 // Fuzz target: camera files, all of their formats: cfuse's own and ROS camera_info (YAML, read by
 // dsl/), OpenCV's calibration files (YAML, XML, JSON, read by cv::FileStorage in vision/ behind
-// its screen, vision/file_storage_screen.h) and ViSP's XML cameras (TinyXML, in importers/).
+// its screen, vision/src/file_storage_screen.h) and ViSP's XML cameras (TinyXML, in importers/).
 // OpenCV's and TinyXML's parsers are not instrumented, so inside them only crashes count, not
 // coverage. An accepted camera must be one the projection can use.
 #include <cmath>
 
-#include "dsl/measurement_reader.h"
+#include "cfuse/dsl/measurement_reader.h"
 #include "fuzz/fuzz_util.h"
-#include "importers/visp.h"
-#include "vision/camera_file.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/vision/camera_file.h"
 
 namespace {
 

@@ -12,7 +12,7 @@
 #include <string>
 #include <string_view>
 
-#include "kernel/error.h"
+#include "cfuse/kernel/error.h"
 
 namespace cfuse::fuzz {
 

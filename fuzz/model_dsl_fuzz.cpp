@@ -1,11 +1,11 @@
 // Fuzz target: a model file of the DSL (YAML, constraint expressions, includes), then what
 // `cfuse check` and `cfuse plan` do with an accepted model.
-#include "constraints/dof.h"
-#include "dsl/model_loader.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/dsl/model_loader.h"
 #include "fuzz/fuzz_util.h"
-#include "importers/cao.h"
-#include "importers/urdf.h"
-#include "interp/schedule.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/interp/schedule.h"
 
 namespace {
 

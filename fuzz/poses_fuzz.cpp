@@ -1,11 +1,11 @@
 // Fuzz target: pose files (`--guess`, `--pose`, `--init`): the results format and ViSP's `.pos`
-// (importers/visp.h); and joint-value files (`fk --joints`). An accepted ViSP pose must be a
+// (cfuse/importers/visp.h); and joint-value files (`fk --joints`). An accepted ViSP pose must be a
 // rigid transform: finite, its rotation a unit quaternion.
 #include <cmath>
 
-#include "dsl/pose_reader.h"
+#include "cfuse/dsl/pose_reader.h"
 #include "fuzz/fuzz_util.h"
-#include "importers/visp.h"
+#include "cfuse/importers/visp.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

@@ -1,10 +1,10 @@
 // Fuzz target: URDF import (tinyxml, then urdfdom, then cfuse's checks), and the round trip
 // `cfuse import` promises: the accepted robot, written as a model of the DSL, reads back with
 // the same components, joints and constraints.
-#include "dsl/model_loader.h"
-#include "dsl/model_writer.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/dsl/model_writer.h"
 #include "fuzz/fuzz_util.h"
-#include "importers/urdf.h"
+#include "cfuse/importers/urdf.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

@@ -5,8 +5,8 @@
 #include <cstdlib>
 #include <string>
 
-#include "kernel/error.h"
-#include "kernel/measurements/camera.h"
+#include "cfuse/kernel/error.h"
+#include "cfuse/kernel/measurements/camera.h"
 
 namespace cfuse::testing {
 

@@ -10,8 +10,8 @@
 
 #include "cli/command_support.h"
 #include "cli/commands.h"
-#include "dsl/measurement_reader.h"
-#include "interp/solve.h"
+#include "cfuse/dsl/measurement_reader.h"
+#include "cfuse/interp/solve.h"
 #include "test_util.h"
 
 namespace cfuse::cli {

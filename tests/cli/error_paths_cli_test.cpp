@@ -368,7 +368,7 @@ TEST_CASE("errors: measurement, pose, camera and joint files refused with status
     ExpectRefused(
         ws, run(ws.Path("cv_syntax.yml")),
         ws.Path("cv_syntax.yml") + ":4: error: syntax error (cv::FileStorage): Missing ':'");
-    // Refused before cv::FileStorage parses it (vision/file_storage_screen.h).
+    // Refused before cv::FileStorage parses it (vision/src/file_storage_screen.h).
     ExpectRefused(ws, run(ws.Path("cv_truncated.yml")),
                   ws.Path("cv_truncated.yml") +
                       ":4:1: error: expected ']' to close the flow sequence opened at 3:14, found "
@@ -919,7 +919,7 @@ TEST_CASE("errors: the program exits 2 for unknown options and one-line refusals
   CHECK(p.err.empty());
 }
 
-// ViSP's files (importers/visp.h) and the camera's image size, through the program: each bad
+// ViSP's files (cfuse/importers/visp.h) and the camera's image size, through the program: each bad
 // input exits 2 with one located line, and nothing is written.
 TEST_CASE("errors: ViSP's files and the camera's size, refused by the program", "[cli][errors]") {
   const Workspace ws("visp");

@@ -14,7 +14,7 @@
 #include "cli/commands.h"
 #include "cli/image_commands.h"
 #include "cli/image_support.h"
-#include "interp/solve.h"
+#include "cfuse/interp/solve.h"
 #include "test_util.h"
 
 namespace cfuse::cli {

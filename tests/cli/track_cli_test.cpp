@@ -15,8 +15,8 @@
 
 #include "cli/image_commands.h"
 #include "cli/track_command.h"
-#include "dsl/pose_reader.h"
-#include "kernel/chi_square.h"
+#include "cfuse/dsl/pose_reader.h"
+#include "cfuse/kernel/chi_square.h"
 #include "test_util.h"
 
 namespace cfuse::cli {

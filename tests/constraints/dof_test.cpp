@@ -1,12 +1,12 @@
 // Degrees of freedom from the rank of the constraint Jacobian, on models whose answer is known.
-#include "constraints/dof.h"
+#include "cfuse/constraints/dof.h"
 
 #include <catch2/catch.hpp>
 
 #include "constraints/jacobian_checker.h"
-#include "constraints/kinds/equality.h"
-#include "constraints/kinds/registry.h"
-#include "constraints/model_builder.h"
+#include "cfuse/constraints/kinds/equality.h"
+#include "cfuse/constraints/kinds/registry.h"
+#include "cfuse/constraints/model_builder.h"
 
 namespace cfuse {
 namespace {

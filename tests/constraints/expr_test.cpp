@@ -1,5 +1,5 @@
 // Expression trees: static types and units, constant folding, printing, slot binding.
-#include "constraints/expr.h"
+#include "cfuse/constraints/expr.h"
 
 #include <catch2/catch.hpp>
 

@@ -1,13 +1,13 @@
 // One checker for every Jacobian in cfuse: automatic differentiation against central
-// differences taken through the same chart (kernel/values.h), with the residual first
+// differences taken through the same chart (cfuse/kernel/values.h), with the residual first
 // filled with NaN so that a row a residual forgets to write shows up.
 #pragma once
 
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "constraints/evaluate.h"
-#include "constraints/graph.h"
+#include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/graph.h"
 
 namespace cfuse::testing {
 

@@ -5,12 +5,12 @@
 #include <random>
 
 #include "constraints/jacobian_checker.h"
-#include "constraints/kinds/equality.h"
-#include "constraints/kinds/inequality.h"
-#include "constraints/kinds/joint_residual.h"
-#include "constraints/kinds/range.h"
-#include "constraints/kinds/registry.h"
-#include "constraints/model_builder.h"
+#include "cfuse/constraints/kinds/equality.h"
+#include "cfuse/constraints/kinds/inequality.h"
+#include "cfuse/constraints/kinds/joint_residual.h"
+#include "cfuse/constraints/kinds/range.h"
+#include "cfuse/constraints/kinds/registry.h"
+#include "cfuse/constraints/model_builder.h"
 
 namespace cfuse {
 namespace {

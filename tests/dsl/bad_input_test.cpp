@@ -12,9 +12,9 @@
 #include <string>
 #include <vector>
 
-#include "constraints/model_builder.h"
-#include "dsl/model_loader.h"
-#include "kernel/error.h"
+#include "cfuse/constraints/model_builder.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
 
 namespace {

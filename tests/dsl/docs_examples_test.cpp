@@ -7,8 +7,8 @@
 #include <string>
 #include <vector>
 
-#include "dsl/model_loader.h"
-#include "kernel/error.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
 
 namespace {

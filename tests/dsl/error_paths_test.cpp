@@ -6,11 +6,11 @@
 #include <string>
 
 #include "cli/command_support.h"
-#include "dsl/measurement_reader.h"
-#include "dsl/model_loader.h"
-#include "dsl/model_writer.h"
-#include "dsl/pose_reader.h"
-#include "kernel/error.h"
+#include "cfuse/dsl/measurement_reader.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/dsl/model_writer.h"
+#include "cfuse/dsl/pose_reader.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {

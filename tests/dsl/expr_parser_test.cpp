@@ -1,4 +1,4 @@
-#include "dsl/expr_parser.h"
+#include "expr_parser.h"
 
 #include <catch2/catch.hpp>
 #include <ostream>

@@ -1,6 +1,6 @@
 // Measurement files: JSON and YAML read alike; every malformed entry is refused with the file,
 // the line and column, the entry and the problem.
-#include "dsl/measurement_reader.h"
+#include "cfuse/dsl/measurement_reader.h"
 
 #include <fmt/format.h>
 
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "dsl/measurement_json.h"
+#include "cfuse/dsl/measurement_json.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {
@@ -110,8 +110,8 @@ TEST_CASE("measurements: every malformed file is refused where and how it should
       [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
 }
 
-// The JSON fast path (dsl/measurement_json.h) must agree with the YAML reader on everything it
-// accepts. A trailing YAML comment hides a file from the fast path (it is not JSON) without
+// The JSON fast path (cfuse/dsl/measurement_json.h) must agree with the YAML reader on everything
+// it accepts. A trailing YAML comment hides a file from the fast path (it is not JSON) without
 // moving anything, so reading `text + "\n#"` is the YAML reader's answer.
 MeasurementSet ReadByYaml(const std::string& text, const std::string& file) {
   return ReadMeasurementsFromString(text + "\n#", file);

@@ -1,18 +1,18 @@
 // The model DSL: the examples load with the DOF they were designed for, and the language's
 // semantics (units, nominal, joints, includes, fixed) build the graph they promise.
-#include "dsl/model_loader.h"
+#include "cfuse/dsl/model_loader.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 
-#include "constraints/dof.h"
-#include "constraints/evaluate.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/constraints/evaluate.h"
 #include "constraints/jacobian_checker.h"
-#include "constraints/model_builder.h"
-#include "constraints/row_selection.h"
-#include "kernel/evaluate.h"
+#include "cfuse/constraints/model_builder.h"
+#include "cfuse/kernel/evaluate.h"
 #include "test_util.h"
+#include "row_selection.h"
 
 namespace cfuse::dsl {
 namespace {

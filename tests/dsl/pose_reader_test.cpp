@@ -1,6 +1,6 @@
 // Pose files (the results format's components and points): what solve, simulate and fk write
 // reads back; every malformed entry is refused with the file, line, column and entry.
-#include "dsl/pose_reader.h"
+#include "cfuse/dsl/pose_reader.h"
 
 #include <catch2/catch.hpp>
 

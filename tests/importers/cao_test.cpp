@@ -2,7 +2,7 @@
 // with their names, outward face normals, loops walked from lines, loads with their transforms
 // (nested, cyclic, too deep), a DSL model including a CAO file, and every malformed input refused
 // at its line and column.
-#include "importers/cao.h"
+#include "cfuse/importers/cao.h"
 
 #include <fmt/format.h>
 
@@ -12,8 +12,8 @@
 #include <map>
 #include <set>
 
-#include "constraints/dof.h"
-#include "dsl/model_loader.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/dsl/model_loader.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -9,10 +9,10 @@
 #include <fstream>
 #include <string>
 
-#include "importers/cao.h"
-#include "importers/urdf.h"
-#include "importers/visp.h"
-#include "kernel/error.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
 
 namespace cfuse {
@@ -46,7 +46,7 @@ void ExpectRefused(const UrdfCase& c) {
 
 // TinyXML parses nested elements by recursion: 10^5 of them (300 KB) overflowed the stack, in
 // the URDF importer (and urdfdom's own parse) and the ViSP camera reader alike. Nesting deeper
-// than 256 elements is refused at the element that goes too deep (importers/xml_document.h);
+// than 256 elements is refused at the element that goes too deep (importers/src/xml_document.h);
 // this test crashed before.
 TEST_CASE("error paths: XML nested too deep for TinyXML is refused, not a crash",
           "[importers][errors]") {

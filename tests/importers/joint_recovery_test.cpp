@@ -7,15 +7,15 @@
 #include <fstream>
 #include <random>
 
-#include "constraints/forward_kinematics.h"
-#include "constraints/kinds/joint_residual.h"
-#include "dsl/model_loader.h"
-#include "importers/urdf.h"
-#include "interp/joint_estimates.h"
-#include "interp/simulate.h"
-#include "interp/solve.h"
-#include "kernel/chi_square.h"
-#include "kernel/evaluate.h"
+#include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/constraints/kinds/joint_residual.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/evaluate.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -6,11 +6,11 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "constraints/dof.h"
-#include "constraints/forward_kinematics.h"
-#include "dsl/model_loader.h"
-#include "dsl/model_writer.h"
-#include "importers/urdf.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/dsl/model_writer.h"
+#include "cfuse/importers/urdf.h"
 #include "test_util.h"
 
 namespace cfuse {

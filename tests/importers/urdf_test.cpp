@@ -1,19 +1,19 @@
 // The URDF importer on the project's own small robots (tests/data/urdf): the model it builds,
 // forward kinematics against a hand computation, the DSL model `cfuse import` writes, a DSL
 // model that includes a robot, and every malformed input refused at its element.
-#include "importers/urdf.h"
+#include "cfuse/importers/urdf.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <random>
 
-#include "constraints/dof.h"
-#include "constraints/forward_kinematics.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/constraints/forward_kinematics.h"
 #include "constraints/jacobian_checker.h"
-#include "dsl/model_loader.h"
-#include "dsl/model_writer.h"
-#include "kernel/so3.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/dsl/model_writer.h"
+#include "cfuse/kernel/so3.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -1,10 +1,10 @@
-// ViSP's files as ViSP writes them (importers/visp.h): the cameras of its data sets' tracker
+// ViSP's files as ViSP writes them (cfuse/importers/visp.h): the cameras of its data sets' tracker
 // settings and of vpXmlParserCamera's files, projecting as ViSP's own model does; its `.pos`
 // poses turned by the exponential map; an assembly of CAO parts placed as ViSP's own test places
 // them; and every malformed file refused at its line and column. The data sets come with the
 // visp-images-data package (scripts/install-deps.sh); without it those cases are skipped, saying
 // so.
-#include "importers/visp.h"
+#include "cfuse/importers/visp.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -18,7 +18,7 @@
 #include <random>
 #include <string>
 
-#include "importers/cao.h"
+#include "cfuse/importers/cao.h"
 #include "test_util.h"
 
 namespace cfuse::importers {

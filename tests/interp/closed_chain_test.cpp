@@ -4,14 +4,14 @@
 #include <catch2/catch.hpp>
 #include <cmath>
 
-#include "constraints/evaluate.h"
-#include "constraints/forward_kinematics.h"
-#include "dsl/model_loader.h"
-#include "interp/joint_estimates.h"
-#include "interp/simulate.h"
-#include "interp/solve.h"
+#include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/interp/solve.h"
 #include "test_util.h"
-#include "vision/sequence.h"
+#include "cfuse/vision/sequence.h"
 
 namespace cfuse {
 namespace {

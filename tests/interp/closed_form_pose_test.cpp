@@ -1,6 +1,6 @@
 // Closed-form poses: exact on noise-free data at poses all over SO(3), and refusing what they
 // cannot solve.
-#include "interp/closed_form_pose.h"
+#include "cfuse/interp/closed_form_pose.h"
 
 #include <catch2/catch.hpp>
 #include <random>

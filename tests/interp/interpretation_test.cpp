@@ -1,6 +1,6 @@
 // The interpretation tree: true matches found on seeded synthetic data, and every degenerate
 // input ending in a clear status within the node budget.
-#include "interp/interpretation.h"
+#include "cfuse/interp/interpretation.h"
 
 #include <fmt/format.h>
 
@@ -9,10 +9,10 @@
 #include <optional>
 #include <random>
 
-#include "dsl/model_loader.h"
-#include "interp/simulate.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/simulate.h"
 #include "test_util.h"
-#include "vision/pnp.h"
+#include "cfuse/vision/pnp.h"
 
 namespace cfuse {
 namespace {

@@ -1,19 +1,19 @@
-// Lowe's parametric estimator (interp/parametric.h): its Jacobians against finite differences,
-// exact recovery from noise-free data, consistency with its covariance (NEES), limits, the
-// models it refuses, and agreement with constraint fusion on the same data.
-#include "interp/parametric.h"
+// Lowe's parametric estimator (cfuse/interp/parametric.h): its Jacobians against finite
+// differences, exact recovery from noise-free data, consistency with its covariance (NEES), limits,
+// the models it refuses, and agreement with constraint fusion on the same data.
+#include "cfuse/interp/parametric.h"
 
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
 #include <random>
 
-#include "constraints/forward_kinematics.h"
-#include "dsl/model_loader.h"
-#include "interp/joint_estimates.h"
-#include "interp/simulate.h"
-#include "kernel/chi_square.h"
-#include "kernel/evaluate.h"
+#include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/evaluate.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -1,12 +1,12 @@
 // The fusion order of Hel-Or & Werman §6/§7: the invariants on the lamp and every example, and
 // hand-checked orders on small graphs.
-#include "interp/schedule.h"
+#include "cfuse/interp/schedule.h"
 
 #include <catch2/catch.hpp>
 #include <fstream>
 #include <iterator>
 
-#include "dsl/model_loader.h"
+#include "cfuse/dsl/model_loader.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -1,21 +1,21 @@
 // Solving with known correspondences: orientation independence, constraints met, occluded
 // points through constraints, rigid components from image points alone.
-#include "interp/solve.h"
+#include "cfuse/interp/solve.h"
 
 #include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "constraints/dof.h"
-#include "dsl/measurement_reader.h"
-#include "dsl/model_loader.h"
-#include "interp/interpretation.h"
-#include "interp/joint_estimates.h"
-#include "interp/simulate.h"
-#include "kernel/chi_square.h"
-#include "kernel/evaluate.h"
+#include "cfuse/constraints/dof.h"
+#include "cfuse/dsl/measurement_reader.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/interpretation.h"
+#include "cfuse/interp/joint_estimates.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/evaluate.h"
 #include "test_util.h"
-#include "vision/pnp.h"
+#include "cfuse/vision/pnp.h"
 
 namespace cfuse {
 namespace {

@@ -1,5 +1,5 @@
-// The chi-square CDF and quantile (kernel/chi_square.h) against closed forms and each other.
-#include "kernel/chi_square.h"
+// The chi-square CDF and quantile (cfuse/kernel/chi_square.h) against closed forms and each other.
+#include "cfuse/kernel/chi_square.h"
 
 #include <catch2/catch.hpp>
 #include <cmath>

@@ -1,17 +1,17 @@
 // The constraint-fusion estimator: agreement with the batch solver, redundancy and
 // contradiction, covariance health over many updates, statistical consistency (NEES).
-#include "kernel/estimator.h"
+#include "cfuse/kernel/estimator.h"
 
 #include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "constraints/kinds/equality.h"
-#include "constraints/model_builder.h"
-#include "dsl/model_loader.h"
-#include "kernel/batch_solver.h"
-#include "kernel/evaluate.h"
-#include "kernel/measurements/point3.h"
+#include "cfuse/constraints/kinds/equality.h"
+#include "cfuse/constraints/model_builder.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/batch_solver.h"
+#include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/measurements/point3.h"
 #include "test_util.h"
 
 namespace cfuse {

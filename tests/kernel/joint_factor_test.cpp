@@ -1,16 +1,16 @@
-// Several constraints fused as one factor (kernel/joint_factor.h): its residual is theirs
+// Several constraints fused as one factor (cfuse/kernel/joint_factor.h): its residual is theirs
 // stacked, its Jacobian matches central differences, and it places a point that one-by-one
 // fusion cannot.
-#include "kernel/joint_factor.h"
+#include "cfuse/kernel/joint_factor.h"
 
 #include <catch2/catch.hpp>
 #include <random>
 
 #include "../constraints/jacobian_checker.h"
-#include "dsl/model_loader.h"
-#include "kernel/estimator.h"
-#include "kernel/evaluate.h"
-#include "kernel/measurements/point3.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/measurements/point3.h"
 #include "test_util.h"
 
 namespace cfuse {

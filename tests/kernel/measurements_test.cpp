@@ -5,11 +5,11 @@
 #include <random>
 
 #include "constraints/jacobian_checker.h"
-#include "kernel/estimator.h"
-#include "kernel/evaluate.h"
-#include "kernel/measurements/image_point.h"
-#include "kernel/measurements/image_segment.h"
-#include "kernel/measurements/point3.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/measurements/image_point.h"
+#include "cfuse/kernel/measurements/image_segment.h"
+#include "cfuse/kernel/measurements/point3.h"
 
 namespace cfuse {
 namespace {

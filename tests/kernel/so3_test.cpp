@@ -1,11 +1,11 @@
-#include "kernel/so3.h"
+#include "cfuse/kernel/so3.h"
 
 #include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "kernel/jet.h"
-#include "kernel/rigid3.h"
+#include "cfuse/kernel/jet.h"
+#include "cfuse/kernel/rigid3.h"
 
 namespace cfuse {
 namespace {

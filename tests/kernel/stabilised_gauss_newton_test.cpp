@@ -6,7 +6,7 @@
 //   [ W ]     [ W (d)  ]         d the step back to the prior's mean, here -x)
 //
 // that is (JᵀJ + WᵀW) δ = Jᵀe + WᵀW d, and moves x by δ. The tracker instead fuses each
-// matched segment into a Gaussian state that starts as the prediction (kernel/estimator.h:
+// matched segment into a Gaussian state that starts as the prediction (cfuse/kernel/estimator.h:
 // FuseSequence with gauss_newton_from_start, each pass linearising every factor about the
 // previous estimate). This test runs both on image segments of a box and asserts that they
 // agree pass by pass, at convergence, and in the covariance, (JᵀJ + WᵀW)⁻¹. Lowe's side is
@@ -15,9 +15,9 @@
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "kernel/estimator.h"
-#include "kernel/evaluate.h"
-#include "kernel/measurements/image_segment.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/measurements/image_segment.h"
 
 namespace cfuse {
 namespace {

@@ -10,8 +10,8 @@
 #include <random>
 #include <sstream>
 
-#include "kernel/estimator.h"
-#include "kernel/residual.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/residual.h"
 
 namespace cfuse {
 namespace {

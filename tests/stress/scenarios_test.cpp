@@ -16,14 +16,14 @@
 #include <random>
 
 #include "cli/results.h"
-#include "dsl/measurement_reader.h"
-#include "dsl/model_loader.h"
-#include "interp/simulate.h"
-#include "interp/solve.h"
-#include "kernel/estimator.h"
-#include "kernel/measurements/image_point.h"
+#include "cfuse/dsl/measurement_reader.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/simulate.h"
+#include "cfuse/interp/solve.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/measurements/image_point.h"
 #include "test_util.h"
-#include "vision/pnp.h"
+#include "cfuse/vision/pnp.h"
 
 namespace cfuse {
 namespace {

@@ -1,23 +1,23 @@
-// The tracker on rendered sequences with known truth (vision/sequence.h's standard scenarios):
-// the rigid box and the hinged box, steady, fast (about 20 px a frame), half occluded, in heavy
-// clutter, and knocked further than the search range reaches (the range must double). Each
+// The tracker on rendered sequences with known truth (cfuse/vision/sequence.h's standard
+// scenarios): the rigid box and the hinged box, steady, fast (about 20 px a frame), half occluded,
+// in heavy clutter, and knocked further than the search range reaches (the range must double). Each
 // asserts the share of frames verified and the errors of the verified ones, over two seeds;
 // then what a tracker must never do: verify a wrong pose from a far-off start, or let a lost
 // frame corrupt the next.
-#include "track/tracker.h"
+#include "cfuse/track/tracker.h"
 
 #include <algorithm>
 #include <catch2/catch.hpp>
 #include <opencv2/core.hpp>
 
-#include "dsl/model_loader.h"
-#include "importers/cao.h"
-#include "importers/urdf.h"
-#include "interp/joint_estimates.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/interp/joint_estimates.h"
 #include "test_util.h"
-#include "track/overlay.h"
-#include "vision/sequence.h"
-#include "vision/texture.h"
+#include "cfuse/track/overlay.h"
+#include "cfuse/vision/sequence.h"
+#include "cfuse/vision/texture.h"
 
 namespace cfuse::track {
 namespace {
@@ -80,7 +80,7 @@ struct Bar {
 };
 
 // The photographs of Debian's visp-images-data on the realistic renders' faces and backgrounds
-// (procedural cards when the package is missing, vision/texture.h).
+// (procedural cards when the package is missing, cfuse/vision/texture.h).
 std::shared_ptr<const std::vector<vision::GrayImage>> Photographs() {
   static const auto photographs = std::make_shared<const std::vector<vision::GrayImage>>(
       vision::LoadPhotographs(vision::VispPhotographPaths()));
@@ -145,8 +145,8 @@ TEST_CASE("tracker: a robot from its URDF, links with box primitives (the hinged
   CheckScenario(graph, {"steady", 1.0, 3.0, 5.0, 1.5});
 }
 
-// Realistic renders (vision/render.h): photographs printed on the faces and behind the object,
-// shading with a highlight, motion blur, sensor noise, a hand passing in front.
+// Realistic renders (cfuse/vision/render.h): photographs printed on the faces and behind the
+// object, shading with a highlight, motion blur, sensor noise, a hand passing in front.
 TEST_CASE("tracker: the hinged box, realistic: texture, highlight, blur, a hand", "[tracker]") {
   const ConstraintGraph graph = HingedBox();
   const auto realistic = vision::RenderStyle::kRealistic;

@@ -1,16 +1,16 @@
 // VerifyOutline on single rendered frames of the hinged box: what a pose needs to be taken for
 // the object, and what the other parts' edges take away from a part's support.
-#include "track/verification.h"
+#include "cfuse/track/verification.h"
 
 #include <catch2/catch.hpp>
 
-#include "constraints/forward_kinematics.h"
-#include "dsl/model_loader.h"
-#include "kernel/estimator.h"
+#include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/estimator.h"
 #include "test_util.h"
-#include "vision/model_edges.h"
-#include "vision/render.h"
-#include "vision/sequence.h"
+#include "cfuse/vision/model_edges.h"
+#include "cfuse/vision/render.h"
+#include "cfuse/vision/sequence.h"
 
 namespace cfuse::track {
 namespace {

@@ -20,10 +20,10 @@
 #include <random>
 #include <sstream>
 
-#include "importers/cao.h"
-#include "importers/visp.h"
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/visp.h"
 #include "test_util.h"
-#include "track/tracker.h"
+#include "cfuse/track/tracker.h"
 
 namespace cfuse::track {
 namespace {

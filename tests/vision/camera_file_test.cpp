@@ -2,7 +2,7 @@
 // XML and JSON, and a ROS camera_info file, read back into cameras that project exactly as
 // cv::projectPoints does with the same K and coefficients; every refused OpenCV file with the
 // node and message.
-#include "vision/camera_file.h"
+#include "cfuse/vision/camera_file.h"
 
 #include <fmt/format.h>
 #include <unistd.h>
@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-#include "dsl/measurement_reader.h"
+#include "cfuse/dsl/measurement_reader.h"
 #include "test_util.h"
 
 namespace cfuse::vision {
@@ -319,7 +319,7 @@ TEST_CASE("OpenCV camera files: syntax errors carry OpenCV's line; missing files
 
 // Issue 25: cv::FileStorage (OpenCV 4.6) dereferences null where its parser meets the end of
 // the text inside a construct, e.g. after an XML attribute's '='. Each of these inputs is refused
-// by the screen (vision/file_storage_screen.h) at its place, before OpenCV sees it; the first
+// by the screen (vision/src/file_storage_screen.h) at its place, before OpenCV sees it; the first
 // crashed the program before the screen.
 TEST_CASE("OpenCV camera files: malformed text is refused at its place, never parsed (issue 25)",
           "[vision]") {

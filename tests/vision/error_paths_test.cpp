@@ -10,11 +10,11 @@
 #include <stdexcept>
 #include <string>
 
-#include "dsl/model_loader.h"
-#include "kernel/error.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
-#include "vision/camera_file.h"
-#include "vision/render.h"
+#include "cfuse/vision/camera_file.h"
+#include "cfuse/vision/render.h"
 
 namespace cfuse::vision {
 namespace {

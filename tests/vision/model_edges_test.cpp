@@ -1,12 +1,12 @@
 // A model's visible edges: back faces culled, wires always shown, clipping to the image and to
 // the space in front of the camera, and the renderer's truth lying on them.
-#include "vision/model_edges.h"
+#include "cfuse/vision/model_edges.h"
 
 #include <catch2/catch.hpp>
 
-#include "dsl/model_loader.h"
+#include "cfuse/dsl/model_loader.h"
 #include "test_util.h"
-#include "vision/render.h"
+#include "cfuse/vision/render.h"
 
 namespace cfuse::vision {
 namespace {

@@ -1,12 +1,12 @@
-// P3P (vision/p3p.h): the true pose among the solutions, every solution exact, and OpenCV's
+// P3P (cfuse/vision/p3p.h): the true pose among the solutions, every solution exact, and OpenCV's
 // solveP3P as a reference for completeness.
-#include "vision/p3p.h"
+#include "cfuse/vision/p3p.h"
 
 #include <catch2/catch.hpp>
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-#include "vision/pnp.h"
+#include "cfuse/vision/pnp.h"
 
 namespace cfuse::vision {
 namespace {

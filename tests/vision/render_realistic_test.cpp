@@ -1,5 +1,5 @@
-// The renderer's realistic style (vision/render.h, vision/texture.h): textures in perspective,
-// the truth against the image, motion blur, the sensor's noise model, determinism, the
+// The renderer's realistic style (cfuse/vision/render.h, cfuse/vision/texture.h): textures in
+// perspective, the truth against the image, motion blur, the sensor's noise model, determinism, the
 // procedural fallback, reading photographs, the hand and the realistic standard sequences.
 #include <catch2/catch.hpp>
 #include <filesystem>
@@ -7,14 +7,14 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "dsl/model_loader.h"
-#include "importers/urdf.h"
-#include "kernel/chi_square.h"
-#include "kernel/error.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/importers/urdf.h"
+#include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/error.h"
 #include "test_util.h"
-#include "vision/render.h"
-#include "vision/sequence.h"
-#include "vision/texture.h"
+#include "cfuse/vision/render.h"
+#include "cfuse/vision/sequence.h"
+#include "cfuse/vision/texture.h"
 
 namespace cfuse::vision {
 namespace {

@@ -1,18 +1,18 @@
 // The image front end: segment detectors on known edges and on rendered scenes with their
 // ground truth, Lowe's subdivision, the segment index against brute force, the region of
 // interest, and bad input.
-#include "vision/segments.h"
+#include "cfuse/vision/segments.h"
 
 #include <catch2/catch.hpp>
 #include <opencv2/imgproc.hpp>
 #include <random>
 
-#include "dsl/model_loader.h"
-#include "interp/simulate.h"
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/simulate.h"
 #include "test_util.h"
-#include "vision/render.h"
-#include "vision/segment_index.h"
-#include "vision/segment_score.h"
+#include "cfuse/vision/render.h"
+#include "cfuse/vision/segment_index.h"
+#include "cfuse/vision/segment_score.h"
 
 namespace cfuse::vision {
 namespace {

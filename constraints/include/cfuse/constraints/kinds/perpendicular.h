@@ -1,0 +1,40 @@
+// perpendicular(u, v): r = û · v̂ (the cosine of the angle; one row, dimensionless).
+#pragma once
+
+#include <fmt/format.h>
+
+#include "cfuse/constraints/kinds/kind_support.h"
+
+namespace cfuse {
+
+class PerpendicularResidual : public AutoDiffResidual<PerpendicularResidual> {
+ public:
+  explicit PerpendicularResidual(BoundArgs args)
+      : AutoDiffResidual(1, args.kinds), args_(std::move(args)) {}
+
+  template <typename T>
+  void Compute(std::span<const BlockState<T>> x, T* r) const {
+    r[0] = cfuse::Evaluate<T>(*args_.exprs[0], x)
+               .normalized()
+               .dot(cfuse::Evaluate<T>(*args_.exprs[1], x).normalized());
+  }
+
+  std::string Describe(std::span<const std::string> names) const override {
+    return fmt::format("perpendicular({}, {})", cfuse::Describe(*args_.exprs[0], names),
+                       cfuse::Describe(*args_.exprs[1], names));
+  }
+
+  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
+    RequireVectors(exprs, "perpendicular", false);
+    BoundArgs args = BindArgs(std::move(exprs), ctx, false);
+    const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
+    RequireNonZero(v, "perpendicular");
+    std::vector<int> blocks = args.blocks;
+    return {std::make_shared<PerpendicularResidual>(std::move(args)), std::move(blocks)};
+  }
+
+ private:
+  BoundArgs args_;
+};
+
+}  // namespace cfuse

@@ -1,0 +1,256 @@
+// The tracker's places other than the prediction (tracker.h): the rings of re-acquisition, and
+// the settling of a frame verified after a loss from places about its estimate, along the line
+// of sight and across each joint's range.
+#include <fmt/format.h>
+
+#include <cmath>
+#include <optional>
+#include <string>
+
+#include "cfuse/constraints/evaluate.h"
+#include "cfuse/track/tracker.h"
+
+namespace cfuse::track {
+
+namespace {
+
+// `values` with every pose and point moved by `shift` (camera frame).
+Values Shifted(Values values, const Eigen::Vector3d& shift) {
+  for (Rigid3d& pose : values.poses) pose.translation += shift;
+  for (Eigen::Vector3d& point : values.points) point += shift;
+  return values;
+}
+
+}  // namespace
+
+Eigen::Vector3d Tracker::RootOrigin(const Values& values) const {
+  const Block& root = graph_.blocks[graph_.components[0].block];
+  return root.kind == BlockKind::kPose ? values.poses[root.index].translation
+                                       : values.points[root.index];
+}
+
+double Tracker::PixelsPerMetre(double depth) const {
+  return camera_.model == Camera::Model::kOrthographic
+             ? camera_.scale
+             : 0.5 * (camera_.fx + camera_.fy) / std::max(0.05, depth);
+}
+
+Values Tracker::RingPlace(const Values& centre, int ring, double angle) const {
+  // Rings 2 ranges apart: each place's search (twice the usual range) reaches its neighbours.
+  const double radius =
+      2 * options_.search_pixels * ring / PixelsPerMetre(RootOrigin(centre).z());
+  return Shifted(centre, Eigen::Vector3d(radius * std::cos(angle), radius * std::sin(angle), 0));
+}
+
+bool Tracker::Reacquire(const vision::GrayView& image, const Values& centre, TrackedFrame* out) {
+  // The better of two frames: verified, then the more of the outline supported.
+  auto better = [](const TrackedFrame& a, const TrackedFrame& b) {
+    if (a.verified != b.verified) return a.verified;
+    return a.verification.supported > b.verification.supported;
+  };
+  bool found = false;
+  auto try_all = [&](const std::vector<Values>& places) {
+    for (const Values& place : places) {
+      TrackedFrame attempt = TryPlace(image, place);
+      FrameTimes spent = out->times;
+      spent += attempt.times;
+      const int branches = out->branches + attempt.branches;
+      if (attempt.verified && better(attempt, *out)) {
+        attempt.doublings = out->doublings;
+        *out = std::move(attempt);
+        found = true;
+      }
+      out->times = spent;
+      out->branches = branches;
+    }
+  };
+  // Rings about the last place seen, a ring further out each frame, round again once they
+  // leave the image; the best of the first ring that finds the object is kept. (Each joint
+  // across its range as well was tried: a lid searched over its whole range finds clutter and
+  // the box's rim to match more often than its image, and was verified wrong in 4 % of the
+  // realistic renders' frames; docs/benchmarks.md.)
+  const double last_ring = std::max(camera_.width, camera_.height) / (2 * options_.search_pixels);
+  int ring = reacquisition_ring_, tried = 0;
+  while (tried < options_.reacquisition_places && !found) {
+    ++ring;
+    if (ring > last_ring) {
+      if (ring == 1) break;  // (an image smaller than a ring)
+      ring = 0;
+      continue;
+    }
+    std::vector<Values> places;
+    for (int k = 0; k < 6 * ring && tried < options_.reacquisition_places; ++k, ++tried) {
+      places.push_back(RingPlace(centre, ring, 2 * M_PI * k / (6 * ring)));
+    }
+    try_all(places);
+  }
+  reacquisition_ring_ = ring;
+  return found;
+}
+
+Values Tracker::DepthPlace(const Values& centre, int k) const {
+  const Eigen::Vector3d at = RootOrigin(centre);
+  if (camera_.model == Camera::Model::kOrthographic || at.z() <= 0) return centre;
+  // Along the line of sight through the root's origin, so that the outline keeps its centre,
+  // each step moving its points at the RMS radius 2 x search_pixels (as a ring does).
+  const double outline =
+      std::max(radius_[graph_.components[0].block], 1e-3) * PixelsPerMetre(at.z());
+  const double step = std::min(0.2, 2 * options_.search_pixels / outline);
+  return Shifted(centre, step * (k / 2 + 1) * (k % 2 == 0 ? 1 : -1) * at);
+}
+
+bool Tracker::Settleable(const Joint& joint) const {
+  return HasJointVariable(joint.type) && !joint.mimic && graph_.components[joint.parent].rigid &&
+         graph_.components[joint.child].rigid;
+}
+
+double Tracker::JointValue(const Joint& joint, const Values& values) const {
+  const Rigid3d& world_from_parent =
+      values.poses[graph_.blocks[graph_.components[joint.parent].block].index];
+  const Rigid3d& world_from_child =
+      values.poses[graph_.blocks[graph_.components[joint.child].block].index];
+  // The joint's motion: its angle about, or its shift along, the axis.
+  const Rigid3d motion = joint.parent_from_joint.Inverse() * world_from_parent.Inverse() *
+                         world_from_child * joint.child_from_joint;
+  if (joint.type == JointType::kPrismatic) return motion.translation.dot(joint.axis);
+  const Eigen::AngleAxisd turned(motion.rotation);
+  return turned.angle() * (turned.axis().dot(joint.axis) < 0 ? -1 : 1);
+}
+
+double Tracker::JointPixels(const Joint& joint, const Values& values) const {
+  const Component& child = graph_.components[joint.child];
+  const double pixels =
+      PixelsPerMetre(values.poses[graph_.blocks[child.block].index].translation.z());
+  return joint.type == JointType::kPrismatic ? pixels
+                                             : pixels * std::max(radius_[child.block], 1e-3);
+}
+
+std::vector<Values> Tracker::JointPlaces(const Values& centre) const {
+  std::vector<Values> out;
+  for (const Joint& joint : graph_.joints) {
+    if (!Settleable(joint)) continue;
+    const Rigid3d& world_from_parent =
+        centre.poses[graph_.blocks[graph_.components[joint.parent].block].index];
+    const Rigid3d& world_from_child =
+        centre.poses[graph_.blocks[graph_.components[joint.child].block].index];
+    const bool prismatic = joint.type == JointType::kPrismatic;
+    const double now = JointValue(joint, centre);
+    std::vector<double> values;
+    if (joint.limits) {
+      const auto [lower, upper] = *joint.limits;
+      for (int k = 0; k < options_.settle_joint_values; ++k) {
+        values.push_back(lower + (k + 0.5) * (upper - lower) / options_.settle_joint_values);
+      }
+    } else if (!prismatic) {
+      for (int k = 1; k <= options_.settle_joint_values; ++k) {
+        values.push_back(now + 2 * M_PI * k / (options_.settle_joint_values + 1));
+      }
+    }
+    // The child's subtree moves with it.
+    std::vector<bool> moved(graph_.components.size(), false);
+    moved[joint.child] = true;
+    for (bool grew = true; grew;) {
+      grew = false;
+      for (const Joint& j : graph_.joints) {
+        if (moved[j.parent] && !moved[j.child]) moved[j.child] = grew = true;
+      }
+    }
+    for (double q : values) {
+      const Rigid3d placed = world_from_parent * joint.parent_from_joint *
+                             JointMotion(joint.type, joint.axis, q) *
+                             joint.child_from_joint.Inverse();
+      const Rigid3d delta = placed * world_from_child.Inverse();
+      Values v = centre;
+      for (size_t c = 0; c < graph_.components.size(); ++c) {
+        if (!moved[c]) continue;
+        const Block& b = graph_.blocks[graph_.components[c].block];
+        if (b.kind == BlockKind::kPose) {
+          v.poses[b.index] = delta * v.poses[b.index];
+        } else {
+          v.points[b.index] = delta * v.points[b.index];
+        }
+      }
+      MatchSlacks(graph_, &v);
+      out.push_back(std::move(v));
+    }
+  }
+  return out;
+}
+
+double Tracker::Evidence(const Verification& v) {
+  return v.supported - v.chance * v.samples;
+}
+
+void Tracker::Settle(const vision::GrayView& image, TrackedFrame* out) {
+  std::vector<Values> places;
+  for (int k = 0; k < options_.settle_places; ++k) {
+    places.push_back(RingPlace(out->estimate.mean, 1, 2 * M_PI * k / options_.settle_places));
+  }
+  for (int k = 0; k < options_.settle_depths; ++k) {
+    places.push_back(DepthPlace(out->estimate.mean, k));
+  }
+  for (Values& v : JointPlaces(out->estimate.mean)) places.push_back(std::move(v));
+
+  FrameTimes spent = out->times;
+  int branches = out->branches;
+  std::optional<TrackedFrame> best;
+  const double searched_outline = best_outline_;
+  const std::optional<GaussianState> searched_undetermined = undetermined_;
+  std::string ambiguous;  // a joint verified as well at a value far from the frame's
+  const double frame_evidence = Evidence(out->verification);
+  for (const Values& place : places) {
+    TrackedFrame attempt = TryPlace(image, place);
+    spent += attempt.times;
+    branches += attempt.branches;
+    if (!attempt.verified) continue;
+    const double evidence = Evidence(attempt.verification);
+    if (evidence >= options_.decisive_share * frame_evidence) {
+      if (!best || evidence > Evidence(best->verification)) {
+        best = std::move(attempt);
+      }
+      continue;
+    }
+    if (!ambiguous.empty() ||
+        options_.decisive_share * evidence < frame_evidence) {
+      continue;
+    }
+    // Not decisively worse: the same answer, unless a joint differs by more than the search
+    // reaches (its child's points moved search_pixels in the image).
+    for (const Joint& joint : graph_.joints) {
+      if (!Settleable(joint)) continue;
+      const double here = JointValue(joint, out->estimate.mean);
+      const double there = JointValue(joint, attempt.estimate.mean);
+      const double apart = joint.type == JointType::kPrismatic
+                               ? std::abs(there - here)
+                               : std::abs(std::remainder(there - here, 2 * M_PI));
+      if (apart * JointPixels(joint, out->estimate.mean) > options_.search_pixels) {
+        const bool prismatic = joint.type == JointType::kPrismatic;
+        ambiguous = fmt::format(
+            "'{}' at {:.{}f} {} and at {:.{}f} {} explain the image alike ({:.0f} and {:.0f} "
+            "samples of their outlines supported beyond chance)",
+            joint.name, prismatic ? 1000 * here : here * 180 / M_PI, prismatic ? 1 : 0,
+            prismatic ? "mm" : "deg", prismatic ? 1000 * there : there * 180 / M_PI,
+            prismatic ? 1 : 0, prismatic ? "mm" : "deg", frame_evidence, evidence);
+        break;
+      }
+    }
+  }
+  // (The places' own sets are other searches: a better-supported one they left undetermined
+  // says nothing of the sets found about the prediction, and is not the frame's estimate.)
+  best_outline_ = searched_outline;
+  undetermined_ = searched_undetermined;
+  if (best) {
+    best->doublings = out->doublings;
+    best->reacquired = out->reacquired;
+    *out = std::move(*best);
+  } else if (!ambiguous.empty()) {
+    out->verified = false;
+    out->verification.verified = false;
+    out->verification.refusal = Refusal::kAmbiguous;
+    out->verification.why = std::move(ambiguous);
+  }
+  out->times = spent;
+  out->branches = branches;
+}
+
+}  // namespace cfuse::track

@@ -1,0 +1,27 @@
+// The P3P problem for a calibrated camera: the poses that put three object points on three
+// bearings (up to four), by Persson & Nordberg's Lambda Twist (ECCV 2018). The two
+// homogeneous quadrics in the depths meet a degenerate conic of their pencil (a root of a
+// cubic), which splits into two planes through the origin; each plane meets the quadrics in
+// at most two depth triples, polished by Newton's method.
+//
+// Why not OpenCV's solveP3P: the interpretation's image seeds make up to 2e5 calls a trial,
+// and OpenCV's per-call matrix allocations took most of its time; its poses are also often
+// 1e-3 rad off, since it does not polish its roots (tests/interp/closed_form_pose_test.cpp).
+// No OpenCV here.
+#pragma once
+
+#include <Eigen/Core>
+#include <array>
+
+#include "cfuse/kernel/rigid3.h"
+
+namespace cfuse::vision {
+
+// camera_from_object poses with λ_i bearing_i = R object_i + t and every depth λ_i > 0, for
+// unit bearings in the camera frame: the number written to *poses (0 to 4). None for
+// collinear or coincident object points or a degenerate view.
+int ThreePointPoses(const std::array<Eigen::Vector3d, 3>& bearings,
+                    const std::array<Eigen::Vector3d, 3>& object_points,
+                    std::array<Rigid3d, 4>* poses);
+
+}  // namespace cfuse::vision
