@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/error.h"
 #include "cfuse/kernel/measurements/camera.h"
 
 namespace cfuse::cli {
@@ -16,6 +17,18 @@ namespace cfuse::cli {
 // Runs a command: InputError -> its message, status 2; InternalError and anything unexpected
 // -> "cfuse: ..." and status 3; otherwise the body's status.
 int Guarded(std::ostream& err, const std::function<int()>& body);
+
+// body(), its InputErrors without a location placed at `file`: a library refuses input that it
+// holds in memory (a camera, an image) without knowing the file it came from.
+template <typename Body>
+auto AtFile(const std::string& file, Body&& body) -> decltype(body()) {
+  try {
+    return body();
+  } catch (const InputError& e) {
+    if (e.where().known()) throw;
+    throw InputError(SourceLocation(file), e.message());
+  }
+}
 
 // A model from a file, by its extension: .yaml/.yml (the DSL, whose `include:` reads .urdf
 // and .cao files too), .urdf (cfuse/importers/urdf.h) or .cao (cfuse/importers/cao.h).

@@ -270,19 +270,12 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
       !(fs::is_directory(options.output, ec) && fs::is_empty(options.output, ec))) {
     throw InputError(where, "exists and is not an empty directory: give a new one");
   }
-  vision::SequenceSpec spec;
-  try {
-    spec = vision::StandardSequence(graph, options.sequence, options.frames, options.seed, style,
+  const vision::SequenceSpec spec = AtFile(options.model, [&] {
+    return vision::StandardSequence(graph, options.sequence, options.frames, options.seed, style,
                                     std::move(photographs));
-  } catch (const std::invalid_argument& e) {
-    throw InputError(SourceLocation(options.model), e.what());
-  }
-  std::vector<vision::SequenceFrame> frames;
-  try {
-    frames = vision::RenderSequence(graph, camera, spec);
-  } catch (const std::invalid_argument& e) {
-    throw InputError(SourceLocation(options.camera), e.what());
-  }
+  });
+  const std::vector<vision::SequenceFrame> frames =
+      AtFile(options.camera, [&] { return vision::RenderSequence(graph, camera, spec); });
   const fs::path target = fs::absolute(options.output).lexically_normal();
   const fs::path partial = target.string() + ".partial";
   fs::remove_all(partial, ec);
@@ -356,12 +349,8 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
     ro.style = style;
     ro.realistic.photographs = std::move(photographs);
     ro.realistic.look_seed = options.seed;
-    vision::Rendering r;
-    try {
-      r = vision::Render(graph, values, camera, ro);
-    } catch (const std::invalid_argument& e) {
-      throw InputError(SourceLocation(options.camera), e.what());
-    }
+    const vision::Rendering r =
+        AtFile(options.camera, [&] { return vision::Render(graph, values, camera, ro); });
     const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
     nlohmann::json truth = {{"width", r.width},
                             {"height", r.height},

@@ -347,10 +347,12 @@ TEST_CASE("tracker: bad input is refused with a reason", "[tracker]") {
   const Values initial =
       vision::SequencePose(graph, vision::StandardSequence(graph, "steady", 2), 0);
   CHECK_THROWS_WITH(Tracker(graph, no_size, initial), Catch::Contains("no image size"));
+  CHECK_THROWS_AS(Tracker(graph, no_size, initial), InputError);
   Tracker tracker(graph, vision::StandardCamera(), initial);
   std::vector<std::uint8_t> small(320 * 240, 0);
   CHECK_THROWS_WITH(tracker.Track({small.data(), 320, 240, 320}),
                     Catch::Contains("320 x 240") && Catch::Contains("640 x 480"));
+  CHECK_THROWS_AS(tracker.Track({small.data(), 320, 240, 320}), InputError);
 }
 
 TEST_CASE("tracker: overlays draw the model yellow when verified and red when lost", "[tracker]") {

@@ -154,10 +154,10 @@ TEST_CASE("render: the truth lies on the visible edges, hidden parts removed", "
   // A camera without a size, or with distortion, is refused.
   Camera sizeless = camera;
   sizeless.width = 0;
-  CHECK_THROWS_AS(Render(g, v, sizeless, ro), std::invalid_argument);
+  CHECK_THROWS_AS(Render(g, v, sizeless, ro), InputError);
   Camera distorted = camera;
   distorted.distortion[0] = -0.1;
-  CHECK_THROWS_AS(Render(g, v, distorted, ro), std::invalid_argument);
+  CHECK_THROWS_AS(Render(g, v, distorted, ro), InputError);
 }
 
 }  // namespace

@@ -444,11 +444,11 @@ TEST_CASE("realistic render: without photographs, procedural cards", "[vision][r
   // A photograph too small, or without its pixels, is refused.
   GrayImage tiny = Flat(100, 16);
   o.realistic.photographs = Share({tiny});
-  CHECK_THROWS_AS(Render(g, at, StandardCamera(), o), std::invalid_argument);
+  CHECK_THROWS_AS(Render(g, at, StandardCamera(), o), InputError);
   GrayImage hollow = Flat(100);
   hollow.pixels.pop_back();
   o.realistic.photographs = Share({hollow});
-  CHECK_THROWS_AS(Render(g, at, StandardCamera(), o), std::invalid_argument);
+  CHECK_THROWS_AS(Render(g, at, StandardCamera(), o), InputError);
 }
 
 TEST_CASE("photographs: read from files and directories, refused at the file", "[vision][render]") {

@@ -8,6 +8,8 @@
 #include <random>
 
 #include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/check.h"
+#include "cfuse/kernel/error.h"
 #include "cfuse/interp/simulate.h"
 #include "test_util.h"
 #include "cfuse/vision/render.h"
@@ -205,7 +207,7 @@ TEST_CASE("segments: a region of interest is processed alone, in image coordinat
 TEST_CASE("segments: bad input is refused, not crashed on", "[vision]") {
   cv::Mat image(50, 60, CV_8U, cv::Scalar(0));
   SegmentOptions o;
-  CHECK_THROWS_AS(DetectSegments(GrayView{}, o), std::invalid_argument);
+  CHECK_THROWS_AS(DetectSegments(GrayView{}, o), InputError);
   for (const PixelRect& roi : {PixelRect{-1, 0, 10, 10}, PixelRect{55, 0, 10, 10},
                                PixelRect{0, 45, 10, 10}, PixelRect{0, 0, 0, 10}}) {
     o.roi = roi;
@@ -213,9 +215,10 @@ TEST_CASE("segments: bad input is refused, not crashed on", "[vision]") {
                       Catch::Matchers::Contains("is not inside the 60 x 50 image"));
   }
   o.roi.reset();
+  // Parameters out of range are the caller's mistake, not the data's: a contract.
   o.low_contrast = 30;
   o.high_contrast = 10;
-  CHECK_THROWS_AS(DetectSegments(View(image), o), std::invalid_argument);
+  CHECK_THROWS_AS(DetectSegments(View(image), o), InternalError);
   // A blank image and one of noise alone give nothing worth a segment.
   o = SegmentOptions{};
   CHECK(DetectSegments(View(image), o).empty());

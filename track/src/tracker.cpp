@@ -6,11 +6,11 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <stdexcept>
 
 #include "cfuse/constraints/dof.h"
 #include "cfuse/constraints/evaluate.h"
 #include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/error.h"
 #include "cfuse/kernel/evaluate.h"
 
 namespace cfuse::track {
@@ -66,7 +66,7 @@ Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Value
                  TrackerOptions options)
     : graph_(graph), camera_(camera), options_(std::move(options)) {
   if (camera_.width <= 0 || camera_.height <= 0) {
-    throw std::invalid_argument("the camera has no image size (width and height)");
+    throw InputError(SourceLocation(), "the camera has no image size (width and height)");
   }
   edges_ = vision::ModelEdges(graph_);
   appearance_ = EdgeAppearance(static_cast<int>(edges_.size()));
@@ -153,7 +153,8 @@ FramePrior Tracker::Prior(const Values& predicted, double scale) const {
 
 TrackedFrame Tracker::Track(const vision::GrayView& image) {
   if (image.width != camera_.width || image.height != camera_.height) {
-    throw std::invalid_argument(
+    throw InputError(
+        SourceLocation(),
         "the image is " + std::to_string(image.width) + " x " + std::to_string(image.height) +
         ", the camera's " + std::to_string(camera_.width) + " x " + std::to_string(camera_.height));
   }

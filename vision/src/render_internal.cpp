@@ -1,28 +1,30 @@
 #include "render_internal.h"
 
 #include <opencv2/imgproc.hpp>
-#include <stdexcept>
 #include <string>
+
+#include "cfuse/kernel/error.h"
 
 namespace cfuse::vision::internal {
 
 void CheckRenderable(const Camera& camera) {
   if (camera.width <= 0 || camera.height <= 0) {
-    throw std::invalid_argument("the camera has no image size (width and height)");
+    throw InputError(SourceLocation(), "the camera has no image size (width and height)");
   }
   // A camera file may give up to 10^6 x 10^6 pixels; refused here rather than failing to
   // allocate the image (and its face buffer), which would be reported as an internal error.
   constexpr long long kMaxPixels = 1ll << 28;
   if (static_cast<long long>(camera.width) * camera.height > kMaxPixels) {
-    throw std::invalid_argument("the camera's image, " + std::to_string(camera.width) + " x " +
-                                std::to_string(camera.height) +
-                                " pixels, is larger than the renderer's limit of 2^28 pixels");
+    throw InputError(SourceLocation(),
+                     "the camera's image, " + std::to_string(camera.width) + " x " +
+                         std::to_string(camera.height) +
+                         " pixels, is larger than the renderer's limit of 2^28 pixels");
   }
   if (camera.model == Camera::Model::kPinhole &&
       std::any_of(camera.distortion.begin(), camera.distortion.end(),
                   [](double d) { return d != 0; })) {
-    throw std::invalid_argument(
-        "the renderer draws undistorted images: give a camera without distortion");
+    throw InputError(SourceLocation(),
+                     "the renderer draws undistorted images: give a camera without distortion");
   }
 }
 

@@ -20,7 +20,8 @@ constexpr double kNearPlane = 1e-3;
 constexpr int kFaceStride = 1 << 16;  // the face buffer holds component * kFaceStride + face
 constexpr int kOccluder = -2;         // in the face buffer (-1: background)
 
-// Throws std::invalid_argument for a camera the renderer cannot draw (render.h).
+// Throws InputError (its location left to the caller, who knows the file) for a camera the renderer
+// cannot draw (render.h).
 void CheckRenderable(const Camera& camera);
 
 // Calls span(v, u0, u1) for each row v whose pixels u0 <= u < u1 have their centres inside

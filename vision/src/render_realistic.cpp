@@ -8,7 +8,8 @@
 #include <memory>
 #include <opencv2/imgproc.hpp>
 #include <random>
-#include <stdexcept>
+
+#include "cfuse/kernel/error.h"
 
 #include "render_internal.h"
 
@@ -482,10 +483,11 @@ void CheckPhotographs(const std::vector<GrayImage>& photographs) {
     const GrayImage& p = photographs[i];
     if (p.width < 32 || p.height < 32 ||
         p.pixels.size() != static_cast<size_t>(p.width) * p.height) {
-      throw std::invalid_argument("photograph " + std::to_string(i) + " (" +
-                                  std::to_string(p.width) + " x " + std::to_string(p.height) +
-                                  " pixels, " + std::to_string(p.pixels.size()) +
-                                  " given) is not a grey image of at least 32 x 32 pixels");
+      throw InputError(SourceLocation(),
+                       "photograph " + std::to_string(i) + " (" + std::to_string(p.width) +
+                           " x " + std::to_string(p.height) + " pixels, " +
+                           std::to_string(p.pixels.size()) +
+                           " given) is not a grey image of at least 32 x 32 pixels");
     }
   }
 }

@@ -10,7 +10,9 @@
 #include <mutex>
 #include <opencv2/core/hal/intrin.hpp>
 #include <opencv2/imgproc.hpp>
-#include <stdexcept>
+
+#include "cfuse/kernel/check.h"
+#include "cfuse/kernel/error.h"
 
 namespace cfuse::vision {
 namespace {
@@ -385,23 +387,28 @@ ImageSegment Fit(const std::vector<Eigen::Vector2f>& p, const std::vector<float>
 
 void Check(const GrayView& image, const SegmentOptions& options) {
   if (!image.data || image.width <= 0 || image.height <= 0) {
-    throw std::invalid_argument("the image is empty");
+    throw InputError(SourceLocation(), "the image is empty");
   }
   if (options.roi) {
     const PixelRect& r = *options.roi;
     if (r.width <= 0 || r.height <= 0 || r.x < 0 || r.y < 0 || r.x + r.width > image.width ||
         r.y + r.height > image.height) {
-      throw std::invalid_argument(
+      throw InputError(
+          SourceLocation(),
           "the region of interest " + std::to_string(r.x) + "," + std::to_string(r.y) + "," +
           std::to_string(r.width) + "," + std::to_string(r.height) + " is not inside the " +
           std::to_string(image.width) + " x " + std::to_string(image.height) + " image");
     }
   }
-  if (!(options.sigma > 0.3 && options.sigma < 20) || !(options.low_contrast > 0) ||
-      !(options.high_contrast >= options.low_contrast) || !(options.min_length >= 2) ||
-      !(options.min_deviation > 0)) {
-    throw std::invalid_argument("the detector's parameters are out of range");
-  }
+  // The detector's parameters are the caller's, not the user's data: a contract.
+  CFUSE_CHECK_MSG(options.sigma > 0.3 && options.sigma < 20,
+                  "the smoothing sigma is " + std::to_string(options.sigma));
+  CFUSE_CHECK_MSG(options.low_contrast > 0 && options.high_contrast >= options.low_contrast,
+                  "contrast thresholds " + std::to_string(options.low_contrast) + " and " +
+                      std::to_string(options.high_contrast));
+  CFUSE_CHECK_MSG(options.min_length >= 2,
+                  "the shortest segment is " + std::to_string(options.min_length));
+  CFUSE_CHECK(options.min_deviation > 0);
 }
 
 }  // namespace

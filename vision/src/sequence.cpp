@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <random>
-#include <stdexcept>
 
 #include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/kernel/error.h"
 
 namespace cfuse::vision {
 
@@ -60,21 +60,21 @@ Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, doub
   std::vector<JointValue> given;
   for (const auto& [name, wave] : spec.joints) {
     if (graph.FindJoint(name) < 0) {
-      throw std::invalid_argument("the model has no joint '" + name + "'");
+      throw InputError(SourceLocation(), "the model has no joint '" + name + "'");
     }
     given.push_back(
         {name, wave.first + wave.second * std::sin(2 * M_PI * i / spec.joint_period), {}});
   }
   Values values = ForwardKinematics(graph, CompleteJointValues(graph, given));
   const int root = RootComponent(graph);
-  if (root < 0) throw std::invalid_argument("the model has no rigid root component");
+  if (root < 0) throw InputError(SourceLocation(), "the model has no rigid root component");
   // A closed chain (a loop, a relation that is no joint) closed at the configuration nearest
   // the joints' waves; its size for the tolerance: the farthest component from the root.
   const Eigen::Vector3d root_at = values.poses[graph.blocks[graph.components[root].block].index].translation;
   double size = 0.1;
   for (const Rigid3d& pose : values.poses) size = std::max(size, (pose.translation - root_at).norm());
   if (!CloseLoops(graph, {}, size, false, &values)) {
-    throw std::invalid_argument("the model's constraints cannot all hold along the sequence");
+    throw InputError(SourceLocation(), "the model's constraints cannot all hold along the sequence");
   }
   const double t = i;
   const Eigen::Vector3d turn = spec.spin * t;
@@ -129,10 +129,10 @@ SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& n
     for (size_t k = 0; k < names.size(); ++k) {
       known += (k == 0 ? "" : k + 1 == names.size() ? " or " : ", ") + names[k];
     }
-    throw std::invalid_argument("no standard sequence '" + name + "' (" + known + ")");
+    throw InputError(SourceLocation(), "no standard sequence '" + name + "' (" + known + ")");
   }
   const int root = RootComponent(graph);
-  if (root < 0) throw std::invalid_argument("the model has no rigid root component");
+  if (root < 0) throw InputError(SourceLocation(), "the model has no rigid root component");
   const Component& base = graph.components[root];
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   for (const FeaturePoint& p : base.points) centre += p.position;

@@ -182,7 +182,8 @@ struct TrackedFrame {
 class Tracker {
  public:
   // `initial`: every component's pose in the camera frame at the first frame (a rough one: the
-  // first frame searches from it). Throws std::invalid_argument for a camera without a size.
+  // first frame searches from it). Throws InputError (its location left to the caller, who knows
+  // the file) for a camera without a size.
   Tracker(const ConstraintGraph& graph, const Camera& camera, const Values& initial,
           TrackerOptions options = {});
 

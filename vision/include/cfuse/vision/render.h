@@ -129,8 +129,9 @@ struct Rendering {
   std::vector<TruthSegment> truth;   // the visible parts of the model's edges
 };
 
-// Throws std::invalid_argument for a camera without a size, over 2^28 pixels, or with
-// distortion, and for a photograph smaller than 32 x 32 pixels or without its pixels.
+// Throws InputError (its location left to the caller, who knows the file) for a camera without a
+// size, over 2^28 pixels, or with distortion, and for a photograph smaller than 32 x 32 pixels or
+// without its pixels.
 Rendering Render(const ConstraintGraph& graph, const Values& values, const Camera& camera,
                  const RenderOptions& options = {});
 

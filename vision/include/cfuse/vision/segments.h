@@ -75,8 +75,9 @@ struct StageTimes {
   double Total() const { return smoothing + edges + linking + subdivision; }
 };
 
-// The segments of `image`. Throws std::invalid_argument for an empty image or a region of
-// interest not inside it (the CLI reports both as bad input).
+// The segments of `image`. Throws InputError (its location left to the caller, who knows the file)
+// for an empty image or a region of interest not inside it (the CLI reports both as bad input);
+// detector parameters out of range are the caller's mistake and fail a CFUSE_CHECK.
 std::vector<ImageSegment> DetectSegments(const GrayView& image, const SegmentOptions& options,
                                          StageTimes* times = nullptr);
 

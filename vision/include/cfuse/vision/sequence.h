@@ -87,7 +87,8 @@ Rigid3d LookAt(const Eigen::Vector3d& target, double azimuth, double elevation, 
 // 0.4), motion blur with the shutter open half the frame interval, the background swaying 2 px,
 // 8 clutter lines and 4 blobs (150 and 40 in `clutter`), read noise 2 and shot noise of gain
 // 0.05.
-// Throws std::invalid_argument for another name or a model without a rigid root.
+// Throws InputError (its location left to the caller, who knows the file) for another name or a
+// model without a rigid root.
 SequenceSpec StandardSequence(const ConstraintGraph& graph, const std::string& name, int frames,
                               unsigned seed = 1, RenderStyle style = RenderStyle::kPlain,
                               std::shared_ptr<const std::vector<GrayImage>> photographs = nullptr);
@@ -107,7 +108,8 @@ struct SequenceFrame {
   Rendering rendering;  // the image and its visible edges
 };
 
-// Throws std::invalid_argument as Render does, or for a joint the model does not have.
+// Throws InputError (its location left to the caller, who knows the file) as Render does, or for a
+// joint the model does not have.
 std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Camera& camera,
                                           const SequenceSpec& spec);
 
