@@ -1,10 +1,10 @@
 // Fuzz target: measurement files (3D points, image points, their camera). Besides the contract
-// of every parser, the JSON fast path (cfuse/dsl/measurement_json.h) must agree with the YAML
+// of every parser, the JSON fast path (dsl/src/measurement_json.h) must agree with the YAML
 // reader: a trailing YAML comment hides the text from the fast path without moving anything, so
 // both readings must accept alike and give the same measurements.
-#include "cfuse/dsl/measurement_json.h"
 #include "cfuse/dsl/measurement_reader.h"
 #include "fuzz/fuzz_util.h"
+#include "measurement_json.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

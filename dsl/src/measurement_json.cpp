@@ -1,4 +1,4 @@
-#include "cfuse/dsl/measurement_json.h"
+#include "measurement_json.h"
 
 #include <fmt/format.h>
 

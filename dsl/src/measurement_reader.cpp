@@ -5,8 +5,8 @@
 #include <cmath>
 #include <vector>
 
-#include "cfuse/dsl/measurement_json.h"
 #include "cfuse/kernel/measurements/camera_checks.h"
+#include "measurement_json.h"
 #include "yaml_document.h"
 #include "yaml_numbers.h"
 

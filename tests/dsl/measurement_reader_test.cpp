@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "cfuse/dsl/measurement_json.h"
+#include "measurement_json.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {
@@ -110,7 +110,7 @@ TEST_CASE("measurements: every malformed file is refused where and how it should
       [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
 }
 
-// The JSON fast path (cfuse/dsl/measurement_json.h) must agree with the YAML reader on everything
+// The JSON fast path (dsl/src/measurement_json.h) must agree with the YAML reader on everything
 // it accepts. A trailing YAML comment hides a file from the fast path (it is not JSON) without
 // moving anything, so reading `text + "\n#"` is the YAML reader's answer.
 MeasurementSet ReadByYaml(const std::string& text, const std::string& file) {
