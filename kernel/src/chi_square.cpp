@@ -42,7 +42,7 @@ double RegularisedGammaP(double a, double x) {
 }  // namespace
 
 double ChiSquareCdf(double x, double dof) {
-  CFUSE_CHECK(dof > 0);
+  CFUSE_CHECK_GT(dof, 0);
   return RegularisedGammaP(0.5 * dof, 0.5 * x);
 }
 

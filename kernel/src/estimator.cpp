@@ -227,7 +227,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     for (int i = 0; i < TangentDim(block.kind); ++i) ws.index.push_back(block.tangent_offset + i);
   }
   const int a = static_cast<int>(ws.index.size());
-  CFUSE_CHECK(a == f.arity());
+  CFUSE_CHECK_EQ(a, f.arity());
   if (state->groups.num_blocks() == static_cast<int>(blocks.size())) {
     state->groups.Support(factor.blocks, &ws.support_blocks);
   } else {
@@ -262,7 +262,8 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   }
 
   const Eigen::MatrixXd& P = state->covariance;
-  CFUSE_CHECK(P.rows() == n && P.cols() == n);
+  CFUSE_CHECK_EQ(P.rows(), n);
+  CFUSE_CHECK_EQ(P.cols(), n);
   Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws.P_sa, s, a);
   for (int j = 0; j < a; ++j) {
     for (const Run& run : ws.runs) {
@@ -281,7 +282,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws.mu, s);
   Eigen::Map<Eigen::VectorXd> mu_a = ScratchVector(&ws.mu_a, a);
   if (offset) {
-    CFUSE_CHECK(offset->size() == n);
+    CFUSE_CHECK_EQ(offset->size(), n);
     for (int j = 0; j < s; ++j) mu(j) = (*offset)(S[j]);
   } else {
     mu.setZero();
@@ -581,7 +582,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
 
 void RetractOffset(GaussianState* state, Eigen::VectorXd* offset) {
   const int n = state->dim();
-  CFUSE_CHECK(offset->size() == n);
+  CFUSE_CHECK_EQ(offset->size(), n);
   const std::vector<Run> all = {{0, 0, n}};
   for (const Block& block : state->blocks) {
     const double* d = offset->data() + block.tangent_offset;

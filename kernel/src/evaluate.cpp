@@ -104,7 +104,7 @@ std::vector<BlockState<double>> GatherStates(const std::vector<Block>& graph_blo
 void EvaluateResidualAt(const ResidualFunction& f, const std::vector<Block>& graph_blocks,
                         std::span<const int> blocks, const Values& values,
                         const double* slot_offset, double* residual, double* jacobian) {
-  CFUSE_CHECK(blocks.size() == f.slot_kinds().size());
+  CFUSE_CHECK_EQ(blocks.size(), f.slot_kinds().size());
   // Scratch reused across calls: the estimator evaluates thousands of small residuals, and
   // their allocations cost more than their arithmetic.
   thread_local std::vector<BlockState<double>> base;
