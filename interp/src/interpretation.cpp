@@ -998,7 +998,8 @@ class Interpreter {
       }
     }
     // Per component joined to the seed's own one: its points near a measurement somewhere
-    // along the joint's sweep (-1: not swept). Only these can match, wherever the joint is.
+    // along the joint's sweep (-1: not swept). Only these can match, wherever the joint is
+    // (as far as "near" holds for the seed's own points: the samples lie closer than that).
     // Components farther along a chain can sit in more places than one sweep shows.
     std::vector<int> reachable(g_.components.size(), -1);
     std::vector<int> queue = {own};
