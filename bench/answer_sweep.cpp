@@ -9,16 +9,17 @@
 // values drawn inside their limits, the closed chains closed) and each is estimated. A row per
 // cell: the share of trials
 //   - right: accepted (what the CLI answers with exit 0: converged, every constraint holding,
-//     the fit test passed, nothing contradictory) and every rigid component's position within
-//     the 0.9999 chi-square gate of its reported covariance (NEES < 21.1, 3 DOF);
+//     the fit test passed, nothing contradictory) and every component's position, and every
+//     rigid component's orientation, within the 0.9999 chi-square gate of its reported
+//     covariance (NEES < 21.1, 3 DOF each);
 //   - ambiguous: accepted with alternatives said (the CLI warns that the data do not decide),
 //     the answer beyond that gate but one of the alternatives inside it under the answer's
 //     covariance (a symmetric or repeated part: the truth was offered);
 //   - wrong: accepted but some component beyond that gate, and no alternative said is right
 //     (the target is 0);
 //   - refused: not accepted (exit 1, with the reason);
-// the share with alternatives reported, and the mean position NEES over the components of the
-// right answers (3 when the covariance is honest).
+// the share with alternatives reported, and the mean NEES (positions and orientations) over
+// the components of the right answers (3 when the covariance is honest).
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -47,29 +48,35 @@ struct Tally {
   int nees_count = 0;
 };
 
-// The position NEES of every component (single points count as components). A covariance
-// floor of (0.1 mm)² keeps a direction the constraints pin (a link's origin moves on a circle:
-// its covariance has rank 1, and the estimate's second-order error leaves the circle by tens
-// of µm) and a component the model fixes (covariance 0) from dividing that by zero; a wrong
+// The NEES of every component's position and, for a rigid one, of its orientation (the error
+// in the pose's chart R <- R Exp(dθ)); single points count as components. Orientation matters
+// where two components share an origin: the scissors' blades both sit on the pivot, and an
+// answer with the blades exchanged has every position right. A covariance floor of (0.1 mm)²,
+// or (0.1 mrad)², keeps a direction the constraints pin (a link's origin moves on a circle: its
+// covariance has rank 1, and the estimate's second-order error leaves the circle by tens of
+// µm) and a component the model fixes (covariance 0) from dividing that by zero; a wrong
 // answer, off by millimetres there, still stands out.
 std::vector<double> Nees(const ConstraintGraph& g, const Values& truth, const Values& mean,
                          const Eigen::MatrixXd& covariance) {
   std::vector<double> out;
-  for (const Component& c : g.components) {
-    const Block& b = g.blocks[c.block];
-    Eigen::Vector3d error;
-    Eigen::Matrix3d cov;
-    if (c.rigid) {
-      error = mean.poses[b.index].translation - truth.poses[b.index].translation;
-      cov = covariance.block<3, 3>(b.tangent_offset + 3, b.tangent_offset + 3);
-    } else {
-      error = mean.points[b.index] - truth.points[b.index];
-      cov = covariance.block<3, 3>(b.tangent_offset, b.tangent_offset);
-    }
+  auto nees = [&](const Eigen::Vector3d& error, Eigen::Matrix3d cov) {
     cov += 1e-8 * Eigen::Matrix3d::Identity();
     const Eigen::LDLT<Eigen::Matrix3d> ldlt(cov);
-    const double nees = ldlt.info() == Eigen::Success ? error.dot(ldlt.solve(error)) : HUGE_VAL;
-    out.push_back(std::isfinite(nees) ? nees : HUGE_VAL);
+    const double n = ldlt.info() == Eigen::Success ? error.dot(ldlt.solve(error)) : HUGE_VAL;
+    out.push_back(std::isfinite(n) ? n : HUGE_VAL);
+  };
+  for (const Component& c : g.components) {
+    const Block& b = g.blocks[c.block];
+    const int o = b.tangent_offset;
+    if (c.rigid) {
+      const Rigid3d& at = mean.poses[b.index];
+      const Rigid3d& truly = truth.poses[b.index];
+      nees(at.translation - truly.translation, covariance.block<3, 3>(o + 3, o + 3));
+      const Eigen::AngleAxisd turn(truly.rotation.conjugate() * at.rotation);
+      nees(turn.angle() * turn.axis(), covariance.block<3, 3>(o, o));
+    } else {
+      nees(mean.points[b.index] - truth.points[b.index], covariance.block<3, 3>(o, o));
+    }
   }
   return out;
 }
