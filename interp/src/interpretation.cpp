@@ -155,8 +155,9 @@ struct Seed {
   std::vector<std::pair<int, int>> assignment;  // (plan level, measurement)
   Rigid3d world_from_nominal;
   int support = 0;      // model points with a measurement near their seeded position
-  // At most this many points can match below the seed: its own component's supported points
-  // and every point of the others, whose places the seed does not fix (a joint may have moved).
+  // At most this many points can match below the seed: its own component's supported points,
+  // those of each component joined to it that its joint's sweep brings near a measurement,
+  // and every point of the others, whose places the seed does not fix (Support).
   int bound = 0;
   // Per component: where the search starts it, as a motion of the nominal geometry (the seed's
   // pose, and for components beyond joints the best of each joint's sweep: Support).
@@ -957,8 +958,10 @@ class Interpreter {
   // seed. The seed's own component is placed rigidly; a component joined to a placed one by a
   // joint with a variable is placed where the joint, swept over its range, puts the most of
   // its points near a measurement (the nominal joint value says little: the joint moved), and
-  // the search starts there; the rest keep the nominal geometry. Only the own component's
-  // points can be ruled out: the others may sit anywhere their joints allow.
+  // the search starts there; the rest keep the nominal geometry. The bound rules out the own
+  // component's points away from every measurement, and a joined component's points that no
+  // place along its joint's sweep brings near one; components farther along a chain may sit
+  // anywhere their joints allow.
   void Support(Seed* seed_out, bool image) const {
     Seed& seed = *seed_out;
     std::vector<int> exclude;
