@@ -13,9 +13,6 @@
 #include <optional>
 #include <sstream>
 
-#include "cli/command_support.h"
-#include "cli/results.h"
-#include "cli/summary.h"
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/constraints/graphviz.h"
 #include "cfuse/dsl/measurement_reader.h"
@@ -32,6 +29,9 @@
 #include "cfuse/kernel/error.h"
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/vision/pnp.h"
+#include "cli/command_support.h"
+#include "cli/results.h"
+#include "cli/summary.h"
 
 namespace cfuse::cli {
 namespace {

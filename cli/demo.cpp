@@ -9,10 +9,6 @@
 #include <cmath>
 #include <filesystem>
 
-#include "cli/command_support.h"
-#include "cli/commands.h"
-#include "cli/image_support.h"
-#include "cli/summary.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/interp/interpretation.h"
 #include "cfuse/interp/joint_estimates.h"
@@ -24,6 +20,10 @@
 #include "cfuse/vision/pnp.h"
 #include "cfuse/vision/point_picture.h"
 #include "cfuse/vision/sequence.h"
+#include "cli/command_support.h"
+#include "cli/commands.h"
+#include "cli/image_support.h"
+#include "cli/summary.h"
 
 namespace cfuse::cli {
 namespace {

@@ -15,10 +15,6 @@
 #include <set>
 #include <sstream>
 
-#include "cli/command_support.h"
-#include "cli/image_support.h"
-#include "cli/results.h"
-#include "cli/track_command.h"
 #include "cfuse/dsl/pose_reader.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/error.h"
@@ -27,6 +23,10 @@
 #include "cfuse/vision/segments.h"
 #include "cfuse/vision/sequence.h"
 #include "cfuse/vision/texture.h"
+#include "cli/command_support.h"
+#include "cli/image_support.h"
+#include "cli/results.h"
+#include "cli/track_command.h"
 
 namespace cfuse::cli {
 namespace {

@@ -18,14 +18,14 @@
 #include <ostream>
 #include <set>
 
-#include "cli/command_support.h"
-#include "cli/image_support.h"
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/error.h"
 #include "cfuse/track/overlay.h"
 #include "cfuse/track/tracker.h"
+#include "cli/command_support.h"
+#include "cli/image_support.h"
 
 namespace cfuse::cli {
 namespace {

@@ -6,9 +6,9 @@
 #include <cmath>
 
 #include "cfuse/dsl/measurement_reader.h"
-#include "fuzz/fuzz_util.h"
 #include "cfuse/importers/visp.h"
 #include "cfuse/vision/camera_file.h"
+#include "fuzz/fuzz_util.h"
 
 namespace {
 

@@ -1,6 +1,6 @@
 // Fuzz target: ViSP CAO import (points, lines, faces, load() of other files).
-#include "fuzz/fuzz_util.h"
 #include "cfuse/importers/cao.h"
+#include "fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

@@ -1,7 +1,7 @@
 // Fuzz target: the constraint-expression parser on its own (faster than through YAML). Every
 // expression accepted must print canonically: the printed text parses to the same print.
-#include "fuzz/fuzz_util.h"
 #include "expr_parser.h"
+#include "fuzz/fuzz_util.h"
 
 namespace {
 

@@ -2,10 +2,10 @@
 // `cfuse check` and `cfuse plan` do with an accepted model.
 #include "cfuse/constraints/dof.h"
 #include "cfuse/dsl/model_loader.h"
-#include "fuzz/fuzz_util.h"
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/urdf.h"
 #include "cfuse/interp/schedule.h"
+#include "fuzz/fuzz_util.h"
 
 namespace {
 

@@ -4,8 +4,8 @@
 #include <cmath>
 
 #include "cfuse/dsl/pose_reader.h"
-#include "fuzz/fuzz_util.h"
 #include "cfuse/importers/visp.h"
+#include "fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

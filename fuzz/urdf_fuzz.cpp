@@ -3,8 +3,8 @@
 // the same components, joints and constraints.
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/dsl/model_writer.h"
-#include "fuzz/fuzz_util.h"
 #include "cfuse/importers/urdf.h"
+#include "fuzz/fuzz_util.h"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;

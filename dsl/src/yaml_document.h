@@ -12,8 +12,8 @@
 #include <string_view>
 #include <vector>
 
-#include "cfuse/kernel/error.h"
 #include "cfuse/kernel/did_you_mean.h"
+#include "cfuse/kernel/error.h"
 #include "lower.h"
 
 namespace cfuse::dsl {

@@ -8,10 +8,10 @@
 
 #include <fmt/format.h>
 
-#include "cli/command_support.h"
-#include "cli/commands.h"
 #include "cfuse/dsl/measurement_reader.h"
 #include "cfuse/interp/solve.h"
+#include "cli/command_support.h"
+#include "cli/commands.h"
 #include "test_util.h"
 
 namespace cfuse::cli {

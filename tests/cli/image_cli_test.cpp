@@ -10,11 +10,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
+#include "cfuse/interp/solve.h"
 #include "cli/command_support.h"
 #include "cli/commands.h"
 #include "cli/image_commands.h"
 #include "cli/image_support.h"
-#include "cfuse/interp/solve.h"
 #include "test_util.h"
 
 namespace cfuse::cli {

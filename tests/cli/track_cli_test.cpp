@@ -13,10 +13,10 @@
 #include <opencv2/videoio.hpp>
 #include <sstream>
 
-#include "cli/image_commands.h"
-#include "cli/track_command.h"
 #include "cfuse/dsl/pose_reader.h"
 #include "cfuse/kernel/chi_square.h"
+#include "cli/image_commands.h"
+#include "cli/track_command.h"
 #include "test_util.h"
 
 namespace cfuse::cli {

@@ -3,10 +3,10 @@
 
 #include <catch2/catch.hpp>
 
-#include "constraints/jacobian_checker.h"
 #include "cfuse/constraints/kinds/equality.h"
 #include "cfuse/constraints/kinds/registry.h"
 #include "cfuse/constraints/model_builder.h"
+#include "constraints/jacobian_checker.h"
 
 namespace cfuse {
 namespace {

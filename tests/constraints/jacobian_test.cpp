@@ -4,13 +4,13 @@
 #include <functional>
 #include <random>
 
-#include "constraints/jacobian_checker.h"
 #include "cfuse/constraints/kinds/equality.h"
 #include "cfuse/constraints/kinds/inequality.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/constraints/kinds/range.h"
 #include "cfuse/constraints/kinds/registry.h"
 #include "cfuse/constraints/model_builder.h"
+#include "constraints/jacobian_checker.h"
 
 namespace cfuse {
 namespace {

@@ -5,12 +5,12 @@
 #include <catch2/catch.hpp>
 #include <string>
 
-#include "cli/command_support.h"
 #include "cfuse/dsl/measurement_reader.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/dsl/model_writer.h"
 #include "cfuse/dsl/pose_reader.h"
 #include "cfuse/kernel/error.h"
+#include "cli/command_support.h"
 #include "test_util.h"
 
 namespace cfuse::dsl {

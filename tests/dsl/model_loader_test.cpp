@@ -8,11 +8,11 @@
 
 #include "cfuse/constraints/dof.h"
 #include "cfuse/constraints/evaluate.h"
-#include "constraints/jacobian_checker.h"
 #include "cfuse/constraints/model_builder.h"
 #include "cfuse/kernel/evaluate.h"
-#include "test_util.h"
+#include "constraints/jacobian_checker.h"
 #include "row_selection.h"
+#include "test_util.h"
 
 namespace cfuse::dsl {
 namespace {

@@ -10,10 +10,10 @@
 
 #include "cfuse/constraints/dof.h"
 #include "cfuse/constraints/forward_kinematics.h"
-#include "constraints/jacobian_checker.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/dsl/model_writer.h"
 #include "cfuse/kernel/so3.h"
+#include "constraints/jacobian_checker.h"
 #include "test_util.h"
 
 namespace cfuse {

@@ -10,8 +10,8 @@
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
-#include "test_util.h"
 #include "cfuse/vision/sequence.h"
+#include "test_util.h"
 
 namespace cfuse {
 namespace {

@@ -11,8 +11,8 @@
 
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/interp/simulate.h"
-#include "test_util.h"
 #include "cfuse/vision/pnp.h"
+#include "test_util.h"
 
 namespace cfuse {
 namespace {
@@ -288,18 +288,24 @@ TEST_CASE("interpret: a symmetric object's equally good interpretations are alte
   CHECK(Interpret(g, sim.measurements, alone).solution->alternatives.empty());
 }
 
+// A configuration with its joints drawn inside their limits, measured in 3D among as many
+// clutter points as real ones.
+Simulation ArticulatedAmongClutter(const ConstraintGraph& g, unsigned seed) {
+  SimulateOptions so;
+  so.seed = seed;
+  so.sample_joints = true;
+  so.clutter = 1;
+  return Simulate(g, so);
+}
+
 // A chain of identical segments (the folding ruler) among as many clutter points: a seed on
 // the first segment says little about where the others swung, so it must not be ruled out by
 // the points the nominal fold angles miss. Every answer accepted is right.
 TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[interp]") {
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
   int accepted = 0, wrong = 0;
-  for (int seed : {100, 103, 107, 108}) {  // each answered 270-400 mm off before
-    SimulateOptions so;
-    so.seed = seed;
-    so.sample_joints = true;
-    so.clutter = 1;
-    const Simulation sim = Simulate(g, so);
+  for (unsigned seed : {100u, 103u, 107u, 108u}) {  // each answered 270-400 mm off before
+    const Simulation sim = ArticulatedAmongClutter(g, seed);
     const Interpretation in = Interpret(g, sim.measurements);
     if (!in.Refusal().empty()) continue;
     ++accepted;
@@ -320,11 +326,7 @@ TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[inte
 TEST_CASE("interpret: a segment matched twisted about its long axis is set right", "[interp]") {
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
   for (unsigned seed : {111u, 124u}) {
-    SimulateOptions so;
-    so.seed = seed;
-    so.sample_joints = true;
-    so.clutter = 1;
-    const Simulation sim = Simulate(g, so);
+    const Simulation sim = ArticulatedAmongClutter(g, seed);
     const Interpretation in = Interpret(g, sim.measurements);
     INFO("seed " << seed);
     CHECK(in.Refusal().empty());
@@ -338,11 +340,7 @@ TEST_CASE("interpret: a segment matched twisted about its long axis is set right
 // exchanged the scissors fit exactly as well: the truth is the answer or an alternative.
 TEST_CASE("interpret: scissors opened to their limit are matched whole", "[interp]") {
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/scissors.yaml"));
-  SimulateOptions so;
-  so.seed = 128;
-  so.sample_joints = true;
-  so.clutter = 1;
-  const Simulation sim = Simulate(g, so);
+  const Simulation sim = ArticulatedAmongClutter(g, 128);
   const Rigid3d a_from_b = sim.truth.poses[0].Inverse() * sim.truth.poses[1];
   REQUIRE(Eigen::AngleAxisd(a_from_b.rotation).angle() > 69.9 * M_PI / 180);
   const Interpretation in = Interpret(g, sim.measurements);

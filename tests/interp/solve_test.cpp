@@ -14,8 +14,8 @@
 #include "cfuse/interp/simulate.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
-#include "test_util.h"
 #include "cfuse/vision/pnp.h"
+#include "test_util.h"
 
 namespace cfuse {
 namespace {

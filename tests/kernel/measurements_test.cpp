@@ -4,12 +4,12 @@
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-#include "constraints/jacobian_checker.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/measurements/image_point.h"
 #include "cfuse/kernel/measurements/image_segment.h"
 #include "cfuse/kernel/measurements/point3.h"
+#include "constraints/jacobian_checker.h"
 
 namespace cfuse {
 namespace {

@@ -15,15 +15,15 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "cli/results.h"
 #include "cfuse/dsl/measurement_reader.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/measurements/image_point.h"
-#include "test_util.h"
 #include "cfuse/vision/pnp.h"
+#include "cli/results.h"
+#include "test_util.h"
 
 namespace cfuse {
 namespace {

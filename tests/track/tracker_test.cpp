@@ -14,10 +14,10 @@
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/urdf.h"
 #include "cfuse/interp/joint_estimates.h"
-#include "test_util.h"
 #include "cfuse/track/overlay.h"
 #include "cfuse/vision/sequence.h"
 #include "cfuse/vision/texture.h"
+#include "test_util.h"
 
 namespace cfuse::track {
 namespace {

@@ -7,10 +7,10 @@
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/kernel/estimator.h"
-#include "test_util.h"
 #include "cfuse/vision/model_edges.h"
 #include "cfuse/vision/render.h"
 #include "cfuse/vision/sequence.h"
+#include "test_util.h"
 
 namespace cfuse::track {
 namespace {

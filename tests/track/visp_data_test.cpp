@@ -22,8 +22,8 @@
 
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/visp.h"
-#include "test_util.h"
 #include "cfuse/track/tracker.h"
+#include "test_util.h"
 
 namespace cfuse::track {
 namespace {

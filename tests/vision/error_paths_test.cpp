@@ -12,9 +12,9 @@
 
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/kernel/error.h"
-#include "test_util.h"
 #include "cfuse/vision/camera_file.h"
 #include "cfuse/vision/render.h"
+#include "test_util.h"
 
 namespace cfuse::vision {
 namespace {

@@ -5,8 +5,8 @@
 #include <catch2/catch.hpp>
 
 #include "cfuse/dsl/model_loader.h"
-#include "test_util.h"
 #include "cfuse/vision/render.h"
+#include "test_util.h"
 
 namespace cfuse::vision {
 namespace {

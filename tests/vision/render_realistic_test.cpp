@@ -11,10 +11,10 @@
 #include "cfuse/importers/urdf.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/error.h"
-#include "test_util.h"
 #include "cfuse/vision/render.h"
 #include "cfuse/vision/sequence.h"
 #include "cfuse/vision/texture.h"
+#include "test_util.h"
 
 namespace cfuse::vision {
 namespace {

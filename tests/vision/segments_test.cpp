@@ -8,13 +8,13 @@
 #include <random>
 
 #include "cfuse/dsl/model_loader.h"
+#include "cfuse/interp/simulate.h"
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/error.h"
-#include "cfuse/interp/simulate.h"
-#include "test_util.h"
 #include "cfuse/vision/render.h"
 #include "cfuse/vision/segment_index.h"
 #include "cfuse/vision/segment_score.h"
+#include "test_util.h"
 
 namespace cfuse::vision {
 namespace {
