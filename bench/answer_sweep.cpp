@@ -159,18 +159,38 @@ int Run(int argc, char** argv) {
           } else {
             ++tally.wrong;
             if (verbose) {
-              double error = 0;
-              for (const Component& c : g.components) {
-                const Block& b = g.blocks[c.block];
-                error = std::max(error, c.rigid ? (solution->state.mean.poses[b.index].translation -
-                                                   sim.truth.poses[b.index].translation)
-                                                      .norm()
-                                                : (solution->state.mean.points[b.index] -
-                                                   sim.truth.points[b.index])
-                                                      .norm());
+              // Per component: position error, orientation error and their NEES.
+              std::string parts;
+              size_t k = 0;  // into nees: two per rigid component, one per point
+              for (size_t c = 0; c < g.components.size(); ++c) {
+                const Block& b = g.blocks[g.components[c].block];
+                if (g.components[c].rigid) {
+                  const Rigid3d& at = solution->state.mean.poses[b.index];
+                  const Rigid3d& truly = sim.truth.poses[b.index];
+                  parts += fmt::format(" {} {:.1f} mm {:.1f} deg ({:.0f}, {:.0f});",
+                                       g.components[c].name,
+                                       1000 * (at.translation - truly.translation).norm(),
+                                       at.rotation.angularDistance(truly.rotation) * 180 / M_PI,
+                                       nees[k], nees[k + 1]);
+                  k += 2;
+                } else {
+                  parts += fmt::format(
+                      " {} {:.1f} mm ({:.0f});", g.components[c].name,
+                      1000 * (solution->state.mean.points[b.index] - sim.truth.points[b.index])
+                                 .norm(),
+                      nees[k++]);
+                }
               }
-              fmt::print(stderr, "{} seed {}: accepted, worst NEES {:.1f}, worst error {:.1f} mm\n",
-                         g.name, so.seed, worst, 1000 * error);
+              double best_alternative = HUGE_VAL;
+              for (const Solution::Alternative& a : solution->alternatives) {
+                best_alternative = std::min(
+                    best_alternative, WorstNees(g, sim.truth, a.mean, solution->state.covariance));
+              }
+              fmt::print(stderr,
+                         "{} seed {}: accepted (p {:.3g}), worst NEES {:.1f};{} {} alternatives, "
+                         "best NEES {:.1f}\n",
+                         g.name, so.seed, solution->analysis.fit.p_value, worst, parts,
+                         solution->alternatives.size(), best_alternative);
             }
           }
         }

@@ -22,6 +22,7 @@
 #include "cfuse/kernel/joint_factor.h"
 #include "cfuse/kernel/measurements/image_point.h"
 #include "cfuse/kernel/measurements/point3.h"
+#include "symmetric_readings.h"
 
 namespace cfuse {
 
@@ -60,6 +61,20 @@ constexpr size_t kMaxImageSweepSamples = 90;
 // Labellings with a measurement shifted to an unmatched point of its component, per round,
 // the likeliest first.
 constexpr size_t kMaxShifts = 8;
+
+// The median of the 3D measurements' largest standard deviations (0 without any).
+double TypicalNoise(const MeasurementSet& set) {
+  std::vector<double> sigmas;
+  for (const MeasuredPoint& m : set.points) {
+    if (m.is_3d) {
+      sigmas.push_back(std::sqrt(std::max(
+          0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.cov3).eigenvalues().maxCoeff())));
+    }
+  }
+  if (sigmas.empty()) return 0;
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
+}
 
 // A model point of the plan: a level's component and feature.
 struct ModelPointRef {
@@ -247,7 +262,11 @@ class Interpreter {
  public:
   Interpreter(const ConstraintGraph& g, const MeasurementSet& set, const InterpretOptions& options,
               std::vector<bool> use)
-      : g_(g), set_(set), options_(options), use_(std::move(use)) {
+      : g_(g),
+        set_(set),
+        options_(options),
+        use_(std::move(use)),
+        symmetries_(g, 3 * TypicalNoise(set)) {
     extent_ = ModelExtent(g);
     Eigen::AlignedBox3d box3;
     Eigen::AlignedBox2d box2;
@@ -568,6 +587,40 @@ class Interpreter {
     best_mean_ = saved_mean;
     best_trace_ = saved_trace;
     stats_.status = saved_status;
+    return out;
+  }
+
+  // The answer read by the model's symmetries (symmetric_readings.h): the same points with
+  // congruent parts exchanged or a symmetric part turned onto itself. Each reading's labelling
+  // is re-fitted from the reading, and returned, as Alternatives does, when its estimate is
+  // accepted and distinct from the answer. Readings whose constraints are broken by more than
+  // 2 % of the model's size (or 0.02 rad) are not tried: no re-fit repairs that much.
+  std::vector<Found> SymmetricAlternatives(const Solution& answer,
+                                           const std::vector<int>& assignment,
+                                           int max_readings) const {
+    std::vector<Found> out;
+    if (!symmetries_.any()) return out;
+    const Context& ctx = contexts_[best_context_];
+    std::map<std::pair<int, int>, int> level_of;
+    for (int l = 0; l < levels_; ++l) level_of[{ctx.points[l].component, ctx.points[l].feature}] = l;
+    const double tolerance = 0.02 * std::max(extent_, 1.0);
+    for (const Reading& reading : symmetries_.Find(answer.state.mean, tolerance, max_readings)) {
+      std::vector<int> next(levels_, -1);
+      for (int l = 0; l < levels_; ++l) {
+        const ModelPointRef p = ctx.points[l];
+        const int source = reading.source_component[p.component];
+        const int feature =
+            g_.components[p.component].rigid ? reading.source_point[p.component][p.feature]
+                                             : p.feature;
+        const auto it = level_of.find({source, feature});
+        if (it != level_of.end()) next[l] = assignment[it->second];
+      }
+      Solution solution = SolveLabelling(next, reading.mean);
+      if (!solution.accepted() || !Distinct(g_, solution.state.mean, answer.state, extent_)) {
+        continue;
+      }
+      out.push_back({std::move(solution), true, std::move(next)});
+    }
     return out;
   }
 
@@ -989,10 +1042,6 @@ class Interpreter {
       return grid2_->AnyWithin(Eigen::Vector3d(uv.x(), uv.y(), 0), 0.03 * diagonal_, exclude);
     };
     const std::vector<std::vector<int>>& levels_of = LevelsOf(seed.context);
-    seed.placement.assign(g_.components.size(), seed.world_from_nominal);
-    std::vector<bool> placed(g_.components.size(), false);
-    placed[own] = true;
-    int support = 0;
     if (joints_of_.empty()) {
       joints_of_.resize(g_.components.size());
       for (size_t j = 0; j < g_.joints.size(); ++j) {
@@ -1000,61 +1049,136 @@ class Interpreter {
         joints_of_[g_.joints[j].child].push_back(static_cast<int>(j));
       }
     }
-    // Per component joined to the seed's own one: its points near a measurement somewhere
-    // along the joint's sweep (-1: not swept). Only these can match, wherever the joint is
-    // (as far as "near" holds for the seed's own points: the samples lie closer than that).
-    // Components farther along a chain can sit in more places than one sweep shows.
-    std::vector<int> reachable(g_.components.size(), -1);
-    std::vector<int> queue = {own};
-    for (size_t head = 0; head < queue.size(); ++head) {
-      const int c = queue[head];
-      for (const int j : joints_of_[c]) {
-        const Joint& joint = g_.joints[j];
-        const int other = joint.parent == c ? joint.child : joint.parent;
-        if (placed[other]) continue;
-        const std::vector<Rigid3d>& sweep = JointSweep(j);
-        // In an image a long sweep finds some clutter near most of its places, and a placement
-        // chosen that way is worse than the nominal one (the four-bar from one camera: right
-        // in 14 % of trials with whole turns swept, 36 % without).
-        if (sweep.empty() || (image && sweep.size() > kMaxImageSweepSamples)) continue;
-        const std::vector<int>& levels = levels_of[other];
-        std::vector<bool> reached(levels.size(), false);
-        int most = 0;
-        Rigid3d best = seed.placement[c];
-        for (const Rigid3d& delta : sweep) {
-          const Rigid3d moved = seed.placement[c] * (joint.parent == c ? delta : delta.Inverse());
-          int count = 0;
-          for (size_t i = 0; i < levels.size(); ++i) {
-            if (near(moved * ctx.nominal[levels[i]])) {
-              ++count;
-              reached[i] = true;
+    // From the own component placed at `start`: each component joined to it, and on along the
+    // chain, where its joint's sweep brings the most points near a measurement; the points so
+    // brought near (support, the own component's included); and per level of the own
+    // component and of each component joined to it, whether it is near a measurement
+    // somewhere along the sweep (empty: not swept). Only these can match, wherever the joint
+    // is. Components farther along a chain can sit in more places than one sweep shows.
+    struct Placing {
+      Rigid3d start;
+      std::vector<Rigid3d> placement;
+      std::vector<bool> placed;
+      std::vector<std::vector<bool>> reached;  // per component, per level of levels_of
+      int support = 0;
+    };
+    auto place = [&](const Rigid3d& start) {
+      Placing out;
+      out.start = start;
+      out.placement.assign(g_.components.size(), start);
+      out.placed.assign(g_.components.size(), false);
+      out.reached.resize(g_.components.size());
+      out.placed[own] = true;
+      std::vector<bool>& own_reached = out.reached[own];
+      for (int level : levels_of[own]) {
+        own_reached.push_back(near(start * ctx.nominal[level]));
+        out.support += own_reached.back() ? 1 : 0;
+      }
+      std::vector<int> queue = {own};
+      for (size_t head = 0; head < queue.size(); ++head) {
+        const int c = queue[head];
+        for (const int j : joints_of_[c]) {
+          const Joint& joint = g_.joints[j];
+          const int other = joint.parent == c ? joint.child : joint.parent;
+          if (out.placed[other]) continue;
+          const std::vector<Rigid3d>& sweep = JointSweep(j);
+          // In an image a long sweep finds some clutter near most of its places, and a
+          // placement chosen that way is worse than the nominal one (the four-bar from one
+          // camera: right in 14 % of trials with whole turns swept, 36 % without).
+          if (sweep.empty() || (image && sweep.size() > kMaxImageSweepSamples)) continue;
+          const std::vector<int>& levels = levels_of[other];
+          std::vector<bool> reached(levels.size(), false);
+          int most = 0;
+          Rigid3d best = out.placement[c];
+          for (const Rigid3d& delta : sweep) {
+            const Rigid3d moved =
+                out.placement[c] * (joint.parent == c ? delta : delta.Inverse());
+            int count = 0;
+            for (size_t i = 0; i < levels.size(); ++i) {
+              if (near(moved * ctx.nominal[levels[i]])) {
+                ++count;
+                reached[i] = true;
+              }
+            }
+            if (count > most) {
+              most = count;
+              best = moved;
             }
           }
-          if (count > most) {
-            most = count;
-            best = moved;
-          }
+          if (c == own) out.reached[other] = std::move(reached);
+          out.placement[other] = best;
+          out.placed[other] = true;
+          out.support += most;
+          queue.push_back(other);
         }
-        if (c == own) {
-          reachable[other] = static_cast<int>(std::count(reached.begin(), reached.end(), true));
-        }
-        seed.placement[other] = best;
-        placed[other] = true;
-        support += most;
-        queue.push_back(other);
+      }
+      return out;
+    };
+    std::vector<Placing> placings = {place(seed.world_from_nominal)};
+    // A seed's own noise leaves it turned about its weakest axis by σ / sqrt(λ), λ the
+    // smallest eigenvalue of Σ |q|² I - q qᵀ over its centred points q (3D). A thin seed (a
+    // blade's pivot, tip and ring, 12 mm off one line) turns by 0.2 rad for 2 mm of noise, and
+    // a joint swept from it passes its neighbour's points by centimetres: the tree then starts
+    // the neighbour far from its points, its linearised gates miss them, and the bound rules
+    // out the seed that holds the answer. So the seed is also placed turned within 3 sigmas,
+    // in steps that move the model's farthest point by the sweep's radius: the placing that
+    // brings the most points near starts the search, and the bound counts every point that
+    // one of them brings near.
+    if (!image && !joints_of_[own].empty()) {
+      Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+      double noise = 0;
+      for (const auto& [level, m] : seed.assignment) {
+        centre += ctx.nominal[level];
+        noise = std::max(noise, LargestVariance(set_.points[m].cov3));
+      }
+      centre /= static_cast<double>(seed.assignment.size());
+      Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
+      for (const auto& [level, m] : seed.assignment) {
+        const Eigen::Vector3d q = ctx.nominal[level] - centre;
+        spread += q.squaredNorm() * Eigen::Matrix3d::Identity() - q * q.transpose();
+      }
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(spread);
+      const double turn_sigma =
+          eigen.eigenvalues()[0] > 0 ? std::sqrt(noise / eigen.eigenvalues()[0]) : 1.0;
+      double reach = 0;
+      for (int l = 0; l < levels_; ++l) reach = std::max(reach, (ctx.nominal[l] - centre).norm());
+      const double step = 0.05 * extent_ / std::max(reach, 1e-9);
+      const int turns = std::min(8, static_cast<int>(std::ceil(3 * std::min(turn_sigma, 1.0) / step)));
+      const Eigen::Vector3d axis = seed.world_from_nominal.rotation * eigen.eigenvectors().col(0);
+      const Eigen::Vector3d pivot = seed.world_from_nominal * centre;
+      for (int k = -turns; turns > 1 && k <= turns; ++k) {
+        if (k == 0) continue;
+        const Eigen::Matrix3d turn =
+            Eigen::AngleAxisd(3 * std::min(turn_sigma, 1.0) * k / turns, axis).toRotationMatrix();
+        placings.push_back(
+            place(Rigid3d(turn, pivot - turn * pivot) * seed.world_from_nominal));
       }
     }
     int bound = 0;
     for (size_t c = 0; c < g_.components.size(); ++c) {
-      if (static_cast<int>(c) == own) continue;
-      bound += reachable[c] >= 0 ? reachable[c] : static_cast<int>(levels_of[c].size());
+      if (placings[0].reached[c].empty() && static_cast<int>(c) != own) {
+        bound += static_cast<int>(levels_of[c].size());  // not swept: anywhere
+        continue;
+      }
+      for (size_t i = 0; i < placings[0].reached[c].size(); ++i) {
+        bound += std::any_of(placings.begin(), placings.end(),
+                             [&](const Placing& p) { return p.reached[c][i]; })
+                     ? 1
+                     : 0;
+      }
     }
+    const Placing& placing = *std::max_element(
+        placings.begin(), placings.end(),
+        [](const Placing& a, const Placing& b) { return a.support < b.support; });
+    seed.world_from_nominal = placing.start;
+    seed.placement = placing.placement;
+    // Single points and components no joint reaches: at the seed's motion of the nominal
+    // geometry.
+    int support = placing.support;
     for (int l = 0; l < levels_; ++l) {
       const int c = ctx.points[l].component;
-      if (placed[c] && c != own) continue;
-      const bool is_near = near(seed.world_from_nominal * ctx.nominal[l]);
-      support += is_near ? 1 : 0;
-      bound += is_near && c == own ? 1 : 0;
+      if (placing.placed[c]) continue;
+      support += near(seed.world_from_nominal * ctx.nominal[l]) ? 1 : 0;
     }
     seed.support = support;
     seed.bound = bound;
@@ -2005,6 +2129,7 @@ class Interpreter {
   std::vector<std::pair<int, std::vector<std::pair<int, double>>>> trace_prefix_;
   mutable std::vector<double> gates_;  // Gate(dof), -1 until computed
   double extent_ = 1;
+  SymmetricReadings symmetries_;
   double clutter3_ = 0, clutter2_ = 0;
   double gate3_ = 0, gate2_ = 0;
   std::vector<int> preassigned_;  // per level: the seed's measurement, or -1
@@ -2111,14 +2236,49 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
   if (out.matched > 0) {
     out.solution =
         solution ? std::move(solution) : search.SolveLabelling(out.assignment, search.best_mean_);
-    if (out.solution->accepted() && options.max_alternative_seeds > 0) {
+    // An answer the fit test rejects can be a reading of the right one that the data only
+    // nearly allow (a folding ruler read from its other end, each segment turned end for end
+    // with its corners 3 mm off): the best accepted reading replaces it.
+    if (!out.solution->accepted() && options.max_symmetric_readings > 0) {
+      std::vector<Interpreter::Found> readings = search.SymmetricAlternatives(
+          *out.solution, out.assignment, options.max_symmetric_readings);
+      const auto best = std::min_element(
+          readings.begin(), readings.end(), [](const auto& a, const auto& b) {
+            return a.solution.analysis.fit.chi2 < b.solution.analysis.fit.chi2;
+          });
+      if (best != readings.end()) {
+        // Re-associated under its own estimate: points the wrong reading left unmatched can
+        // find their measurements now.
+        std::vector<int> assignment = best->assignment;
+        if (options.refine_rounds > 0) {
+          search.best_mean_ = best->solution.state.mean;
+          int changes = 0;
+          Solution refined = search.Refine(&assignment, options.refine_rounds, &changes);
+          if (refined.accepted()) {
+            best->solution = std::move(refined);
+            best->assignment = std::move(assignment);
+            out.stats.refinements += changes;
+          }
+        }
+        *out.solution = std::move(best->solution);
+        out.assignment = std::move(best->assignment);
+        record();
+      }
+    }
+    if (out.solution->accepted() &&
+        (options.max_alternative_seeds > 0 || options.max_symmetric_readings > 0)) {
       std::vector<Interpreter::Found> others =
           search.Alternatives(out.solution->state, options.max_alternative_seeds);
+      for (Interpreter::Found& other : search.SymmetricAlternatives(
+               *out.solution, out.assignment, options.max_symmetric_readings)) {
+        others.push_back(std::move(other));
+      }
       // One that matches as many points in the same plan and fits better is the answer: the
       // data tell them apart (a folding ruler read from its other end fits, but worse).
       for (Interpreter::Found& other : others) {
-        if (other.same_plan &&
-            other.solution.analysis.fit.chi2 < out.solution->analysis.fit.chi2) {
+        // (By more than rounding: an exact symmetry's reading fits the same.)
+        const double chi2 = out.solution->analysis.fit.chi2;
+        if (other.same_plan && other.solution.analysis.fit.chi2 < chi2 - 1e-9 * (1 + chi2)) {
           Solution previous = std::move(*out.solution);
           *out.solution = std::move(other.solution);
           other.solution = std::move(previous);
@@ -2126,7 +2286,14 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
           record();
         }
       }
+      // Each distinct answer once: a reading of the answer can repeat what a seed found.
+      std::vector<const GaussianState*> listed = {&out.solution->state};
       for (const Interpreter::Found& other : others) {
+        const bool seen = std::any_of(listed.begin(), listed.end(), [&](const GaussianState* s) {
+          return !Distinct(graph, other.solution.state.mean, *s, ModelExtent(graph));
+        });
+        if (seen) continue;
+        listed.push_back(&other.solution.state);
         out.solution->alternatives.push_back(
             {other.solution.state.mean, other.solution.analysis.fit});
       }

@@ -156,6 +156,11 @@ struct InterpretOptions {
   // fit test does not reject become the solution's alternatives; within what the search left
   // of max_nodes. 0: none.
   int max_alternative_seeds = 4;
+  // The answer read by the model's symmetries, at most this many readings (congruent parts
+  // exchanged, a symmetric part turned onto itself: the same points, so the same fit unless a
+  // constraint breaks): each re-fitted, and listed among the alternatives when accepted. 0:
+  // none.
+  int max_symmetric_readings = 16;
   PosesFromThreeProjections poses_from_three_projections;  // image data: seeds
   SolveOptions solve;  // the final estimate from the matches found
 };
