@@ -267,6 +267,9 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
                         {"seeds", in.stats.seeds},
                         {"seeds_tried", in.stats.seeds_tried},
                         {"refinements", in.stats.refinements},
+                        {"predicted", in.stats.predicted >= 0
+                                          ? nlohmann::json(in.stats.predicted)
+                                          : nlohmann::json(nullptr)},
                         {"matched", in.matched},
                         {"total_delta", in.total_delta}};
     const std::string text = JsonText(result, 2) + "\n";

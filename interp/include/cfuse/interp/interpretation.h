@@ -178,6 +178,11 @@ struct SearchStats {
   int seeds = 0;        // seed hypotheses found
   int seeds_tried = 0;  // of which searched below
   int refinements = 0;  // labellings replaced by their re-association
+  // Image data: of the answer's matches found in the tree, those predicted before they were
+  // seen, inside a gate that expected less than one clutter point (Lowe's evidence: the
+  // matches that fix the pose predict nothing). -1 for 3D data, where a seed's own geometry is
+  // evidence too, and for a branch the node budget cut short.
+  int predicted = -1;
 };
 const char* StatusName(SearchStats::Status status);
 
