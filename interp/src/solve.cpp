@@ -712,6 +712,17 @@ void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
     Values mirrored = each;
     if (Mirrored(graph, used, static_cast<int>(c), &mirrored)) starts.push_back(mirrored);
   }
+  // And the answer's own mirror images, whole and part by part: the other minimum of a
+  // near-planar object lies near the mirror image of the one found, where the closed-form
+  // starts can be far from both (the scissors, flat blades 2 mm apart: 3 of 50 answers 17 to
+  // 73 degrees off, no alternative said).
+  if (Sound(*solution)) {
+    for (int c = -1; c < static_cast<int>(graph.components.size()); ++c) {
+      if (c >= 0 && (!graph.components[c].rigid || graph.components.size() == 1)) continue;
+      Values mirrored = solution->state.mean;
+      if (Mirrored(graph, used, c, &mirrored)) starts.push_back(mirrored);
+    }
+  }
   std::vector<Solution> found;
   for (const Values& start : starts) {
     Solution other;
