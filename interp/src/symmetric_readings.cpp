@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <deque>
+#include <limits>
 
 #include "cfuse/constraints/evaluate.h"
 #include "cfuse/kernel/evaluate.h"
