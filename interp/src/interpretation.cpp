@@ -65,20 +65,6 @@ constexpr size_t kMaxShifts = 8;
 // (Interpretation::Refusal).
 constexpr int kMinPredicted = 3;
 
-// The median of the 3D measurements' largest standard deviations (0 without any).
-double TypicalNoise(const MeasurementSet& set) {
-  std::vector<double> sigmas;
-  for (const MeasuredPoint& m : set.points) {
-    if (m.is_3d) {
-      sigmas.push_back(std::sqrt(std::max(
-          0.0, Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(m.cov3).eigenvalues().maxCoeff())));
-    }
-  }
-  if (sigmas.empty()) return 0;
-  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
-  return sigmas[sigmas.size() / 2];
-}
-
 // A model point of the plan: a level's component and feature.
 struct ModelPointRef {
   int component = -1, feature = -1;
@@ -259,6 +245,17 @@ double LargestVariance(const Eigen::MatrixXd& cov) {
   return Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>(cov, Eigen::EigenvaluesOnly)
       .eigenvalues()
       .maxCoeff();
+}
+
+// The median of the 3D measurements' largest standard deviations (0 without any).
+double TypicalNoise(const MeasurementSet& set) {
+  std::vector<double> sigmas;
+  for (const MeasuredPoint& m : set.points) {
+    if (m.is_3d) sigmas.push_back(std::sqrt(std::max(0.0, LargestVariance(m.cov3))));
+  }
+  if (sigmas.empty()) return 0;
+  std::nth_element(sigmas.begin(), sigmas.begin() + sigmas.size() / 2, sigmas.end());
+  return sigmas[sigmas.size() / 2];
 }
 
 class Interpreter {
@@ -608,7 +605,9 @@ class Interpreter {
     if (!symmetries_.any()) return out;
     const Context& ctx = contexts_[best_context_];
     std::map<std::pair<int, int>, int> level_of;
-    for (int l = 0; l < levels_; ++l) level_of[{ctx.points[l].component, ctx.points[l].feature}] = l;
+    for (int l = 0; l < levels_; ++l) {
+      level_of[{ctx.points[l].component, ctx.points[l].feature}] = l;
+    }
     const double tolerance = 0.02 * std::max(extent_, 1.0);
     for (const Reading& reading : symmetries_.Find(answer.state.mean, tolerance, max_readings)) {
       std::vector<int> next(levels_, -1);
@@ -1151,13 +1150,14 @@ class Interpreter {
       double reach = 0;
       for (int l = 0; l < levels_; ++l) reach = std::max(reach, (ctx.nominal[l] - centre).norm());
       const double step = 0.05 * extent_ / std::max(reach, 1e-9);
-      const int turns = std::min(8, static_cast<int>(std::ceil(3 * std::min(turn_sigma, 1.0) / step)));
+      const double span = 3 * std::min(turn_sigma, 1.0);  // radians either way
+      const int turns = std::min(8, static_cast<int>(std::ceil(span / step)));
       const Eigen::Vector3d axis = seed.world_from_nominal.rotation * eigen.eigenvectors().col(0);
       const Eigen::Vector3d pivot = seed.world_from_nominal * centre;
       for (int k = -turns; turns > 1 && k <= turns; ++k) {
         if (k == 0) continue;
         const Eigen::Matrix3d turn =
-            Eigen::AngleAxisd(3 * std::min(turn_sigma, 1.0) * k / turns, axis).toRotationMatrix();
+            Eigen::AngleAxisd(span * k / turns, axis).toRotationMatrix();
         placings.push_back(
             place(Rigid3d(turn, pivot - turn * pivot) * seed.world_from_nominal));
       }
@@ -2304,9 +2304,10 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
       }
       // Each distinct answer once: a reading of the answer can repeat what a seed found.
       std::vector<const GaussianState*> listed = {&out.solution->state};
+      const double extent = ModelExtent(graph);
       for (const Interpreter::Found& other : others) {
         const bool seen = std::any_of(listed.begin(), listed.end(), [&](const GaussianState* s) {
-          return !Distinct(graph, other.solution.state.mean, *s, ModelExtent(graph));
+          return !Distinct(graph, other.solution.state.mean, *s, extent);
         });
         if (seen) continue;
         listed.push_back(&other.solution.state);

@@ -26,7 +26,8 @@ double LargestPointMove(const ConstraintGraph& g, const Values& configuration,
   for (size_t c = 0; c < g.components.size(); ++c) {
     if (!g.components[c].rigid) continue;
     for (size_t i = 0; i < g.components[c].points.size(); ++i) {
-      const Eigen::Vector3d now = ModelPoint(g, reading.mean, static_cast<int>(c), static_cast<int>(i));
+      const Eigen::Vector3d now =
+          ModelPoint(g, reading.mean, static_cast<int>(c), static_cast<int>(i));
       const Eigen::Vector3d before = ModelPoint(g, configuration, reading.source_component[c],
                                                 reading.source_point[c][i]);
       largest = std::max(largest, (now - before).norm());
