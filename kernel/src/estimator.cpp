@@ -768,12 +768,12 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
       if (lambda * lambda <= kBoundary * options.constraint_tolerance)
         active[i] = any_active = true;
     }
-    if (any_active && releases < kMaxReleases) {
+    if (any_active && (releases < kMaxReleases || options.boundary_free_covariance)) {
       GaussianState free;
       gauss_newton_pass(state->mean, &free, &active, nullptr);
       bool released = false;
       double g = 0;
-      for (size_t i = 0; i < factors.size(); ++i) {
+      for (size_t i = 0; i < factors.size() && releases < kMaxReleases; ++i) {
         if (!active[i]) continue;
         Values at = free.mean;
         at.slacks[state->blocks[SlackBlock(factors[i], state->blocks)].index] = 0;
@@ -791,6 +791,8 @@ SequenceSummary FuseSequence(const std::vector<Factor>& factors, GaussianState* 
         passes_allowed = std::max(passes_allowed, pass + 1 + options.max_passes);
         continue;
       }
+      // The data pull beyond the boundary, and the estimate stays on it (options).
+      if (options.boundary_free_covariance) state->covariance = std::move(free.covariance);
     }
     summary.converged = true;
     break;

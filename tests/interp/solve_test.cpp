@@ -316,6 +316,38 @@ TEST_CASE("solve: a limit held at a start outside it lets go when the data pull 
   CHECK(right == trials);
 }
 
+TEST_CASE("solve: an estimate held on a limit does not claim the limit known to zero variance",
+          "[interp]") {
+  // Truths 1 degree beyond the lower limit: the estimate stays on the limit. Its joint angle's
+  // variance is the data's, as without the limit, not the 0 of a boundary held as an equality
+  // (the truth of a real object is then anywhere inside).
+  const ConstraintGraph limited = dsl::LoadModelFromString(kElbow, "elbow.yaml", ".");
+  std::string wide = kElbow;
+  wide.replace(wide.find("limits: [0, 60]"), 15, "limits: [-60, 60]");
+  const ConstraintGraph unlimited = dsl::LoadModelFromString(wide, "elbow.yaml", ".");
+  for (unsigned seed = 1; seed <= 5; ++seed) {
+    std::mt19937 rng(seed);
+    const Values truth = ElbowAt(limited, -1 * M_PI / 180, RandomPose(rng, 1.0));
+    const MeasurementSet set = Measure3d(limited, truth, rng, 0.002);
+    const Solution on = Solve(limited, set);
+    const Solution off = Solve(unlimited, set);
+    REQUIRE(on.accepted());
+    REQUIRE(off.accepted());
+    const auto angle_variance = [](const ConstraintGraph& g, const Solution& s) {
+      const Eigen::MatrixXd j = JointJacobian(g, s.state.mean);
+      const int n = static_cast<int>(j.cols());
+      return (j * s.state.covariance.topLeftCorner(n, n) * j.transpose())(0, 0);
+    };
+    REQUIRE(std::abs(JointValues(limited, on.state.mean)(0)) < 1e-6);  // on the limit
+    const double held = angle_variance(limited, on), free = angle_variance(unlimited, off);
+    INFO("seed " << seed << ": angle variance " << held << " on the limit, " << free
+                 << " without it");
+    CHECK(free > 0);
+    CHECK(held > 0.5 * free);
+    CHECK(held < 2 * free);
+  }
+}
+
 TEST_CASE("solve: a guess naming what the model lacks is an error at its entry", "[interp]") {
   const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   std::mt19937 rng(1);

@@ -150,6 +150,11 @@ struct SequenceOptions {
   // far along its free direction. Linearised about one point, the updates solve the
   // linearised problem exactly, in any order.
   bool gauss_newton_from_start = false;
+  // An estimate that stays on an inequality's boundary (the data pull beyond it) gets the
+  // covariance of the pass without its active inequalities: the boundary held as an equality
+  // would claim it known to zero variance, while the truth may lie anywhere inside. For a
+  // reported answer; a tracker, whose next search the covariance bounds, keeps the boundary.
+  bool boundary_free_covariance = false;
 };
 
 struct SequenceSummary {
