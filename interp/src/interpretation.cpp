@@ -18,8 +18,8 @@
 #include "cfuse/interp/closed_form_pose.h"
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/chi_square.h"
+#include "cfuse/kernel/combined_constraint.h"
 #include "cfuse/kernel/evaluate.h"
-#include "cfuse/kernel/joint_factor.h"
 #include "cfuse/kernel/measurements/image_point.h"
 #include "cfuse/kernel/measurements/point3.h"
 #include "symmetric_readings.h"
@@ -1521,7 +1521,7 @@ class Interpreter {
       }
       GaussianState saved = f->state;
       // Together: fused one by one, a constraint linearised at the re-centred guess can leave
-      // the next one degenerate (joint_factor.h).
+      // the next one degenerate (combined_constraint.h).
       std::vector<Factor> parts;
       for (int k : ready) {
         const Constraint& c = g_.constraints[k];
@@ -1529,7 +1529,7 @@ class Interpreter {
       }
       const Factor joint = parts.size() == 1
                                ? parts[0]
-                               : JointConstraint(parts, block_kinds_, ModelPointName(g_, n, -1));
+                               : CombinedConstraint(parts, block_kinds_, ModelPointName(g_, n, -1));
       const FusionSummary s = Fuse(joint, &f->state, joint_fusion_);
       if (s.status == FusionSummary::Status::kNotConverged) {
         // The neighbours matched so far place the point only ill-conditioned (it sits where
@@ -1571,7 +1571,7 @@ class Interpreter {
     double nis = 0;
     GaussianState saved = f->state;
     const FusionSummary s =
-        Fuse(JointConstraint(parts, block_kinds_, "deferred"), &f->state, joint_fusion_);
+        Fuse(CombinedConstraint(parts, block_kinds_, "deferred"), &f->state, joint_fusion_);
     if (s.status == FusionSummary::Status::kNotConverged) {
       // The points stay determined only at second order (see Determine): their iterations do
       // not settle, but the first, linearised where the points were guessed, still tests the

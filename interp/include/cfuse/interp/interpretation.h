@@ -39,8 +39,9 @@
 // (a joint's angle). Once the waiting constraints whose other points are matched determine the
 // point (their gradients span all three directions), it is placed where they hold best (a
 // small Levenberg-Marquardt solve) and they are fused together as one factor
-// (cfuse/kernel/joint_factor.h): fused one at a time, a distance and a parallel axis that meet
-// tangentially make the second one's iterations diverge. A leaf fuses whatever still waits.
+// (cfuse/kernel/combined_constraint.h): fused one at a time, a distance and a parallel axis
+// that meet tangentially make the second one's iterations diverge. A leaf fuses whatever still
+// waits.
 //
 // Seeds. Under the vague prior a pose is unknown, so gating the first points of the tree means
 // nothing. The plan starts with a seed set from which a pose follows in closed form: a rigid

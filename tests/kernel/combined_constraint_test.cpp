@@ -1,7 +1,7 @@
-// Several constraints fused as one factor (cfuse/kernel/joint_factor.h): its residual is theirs
-// stacked, its Jacobian matches central differences, and it places a point that one-by-one
-// fusion cannot.
-#include "cfuse/kernel/joint_factor.h"
+// Several constraints fused as one factor (cfuse/kernel/combined_constraint.h): its residual is
+// theirs stacked, its Jacobian matches central differences, and it places a point that
+// one-by-one fusion cannot.
+#include "cfuse/kernel/combined_constraint.h"
 
 #include <catch2/catch.hpp>
 #include <random>
@@ -58,13 +58,13 @@ Values Perturbed(const ConstraintGraph& g, std::mt19937& rng, double size) {
   return v;
 }
 
-TEST_CASE("joint factor: the stacked residual of its parts, on the union of their blocks",
+TEST_CASE("combined constraint: the stacked residual of its parts, on the union of their blocks",
           "[kernel]") {
   const ConstraintGraph g = Elbow();
   // The shoulder's side point: two distances and the parallel hinge axis.
   const std::vector<Factor> parts = {AsFactor(Named(g, "c21")), AsFactor(Named(g, "elbow_axis")),
                                      AsFactor(Named(g, "c17"))};
-  const Factor joint = JointConstraint(parts, Kinds(g), "p6");
+  const Factor joint = CombinedConstraint(parts, Kinds(g), "p6");
   CHECK(joint.is_constraint());
   CHECK(joint.residual->dimension() == 1 + 2 + 1);
   CHECK(joint.blocks.size() == 4);  // p8, p6, p7, p9
@@ -87,7 +87,7 @@ TEST_CASE("joint factor: the stacked residual of its parts, on the union of thei
   CHECK(description.find("parallel(p7 - p6, p9 - p8)") != std::string::npos);
 }
 
-TEST_CASE("joint factor: places a point whose constraints are degenerate one at a time",
+TEST_CASE("combined constraint: places a point whose constraints are degenerate one at a time",
           "[kernel]") {
   // p6 unmeasured (the vague prior), p7, p8 and p9 measured. A distance to p8 fused first
   // freezes p6's radial direction; the parallel axis then asks p6 to move along a line
@@ -118,7 +118,7 @@ TEST_CASE("joint factor: places a point whose constraints are degenerate one at 
     }
     const std::vector<Factor> parts = {AsFactor(Named(g, "c21")), AsFactor(Named(g, "elbow_axis")),
                                        AsFactor(Named(g, "c17"))};
-    const FusionSummary s = Fuse(JointConstraint(parts, Kinds(g), "p6"), &state);
+    const FusionSummary s = Fuse(CombinedConstraint(parts, Kinds(g), "p6"), &state);
     if (s.status == FusionSummary::Status::kFused ||
         s.status == FusionSummary::Status::kPartlyRedundant) {
       ++converged;

@@ -21,7 +21,7 @@
 
 namespace cfuse {
 
-class JointResidual : public AutoDiffResidual<JointResidual> {
+class CombinedResidual : public AutoDiffResidual<CombinedResidual> {
  public:
   static constexpr int kMaxPartSlots = 8;
 
@@ -30,7 +30,7 @@ class JointResidual : public AutoDiffResidual<JointResidual> {
     std::vector<int> slots;  // per slot of the part: its slot in the joint residual
   };
 
-  JointResidual(std::vector<Part> parts, std::vector<BlockKind> kinds)
+  CombinedResidual(std::vector<Part> parts, std::vector<BlockKind> kinds)
       : AutoDiffResidual(TotalDimension(parts), std::move(kinds)), parts_(std::move(parts)) {
     for (const Part& p : parts_) {
       CFUSE_CHECK(p.slots.size() <= kMaxPartSlots);
@@ -127,15 +127,15 @@ class JointResidual : public AutoDiffResidual<JointResidual> {
 
 // One constraint factor (no noise) from several: its blocks are the union of theirs, in order
 // of first appearance, and its kinds are given by `kinds` (per block id).
-inline Factor JointConstraint(const std::vector<Factor>& constraints,
+inline Factor CombinedConstraint(const std::vector<Factor>& constraints,
                               const std::vector<BlockKind>& kinds, std::string name) {
   Factor joint;
   joint.name = std::move(name);
-  std::vector<JointResidual::Part> parts;
+  std::vector<CombinedResidual::Part> parts;
   std::vector<BlockKind> slot_kinds;
   for (const Factor& c : constraints) {
     CFUSE_CHECK(c.is_constraint());
-    JointResidual::Part part{c.residual, {}};
+    CombinedResidual::Part part{c.residual, {}};
     for (int b : c.blocks) {
       auto it = std::find(joint.blocks.begin(), joint.blocks.end(), b);
       if (it == joint.blocks.end()) {
@@ -147,7 +147,7 @@ inline Factor JointConstraint(const std::vector<Factor>& constraints,
     }
     parts.push_back(std::move(part));
   }
-  joint.residual = std::make_shared<JointResidual>(std::move(parts), std::move(slot_kinds));
+  joint.residual = std::make_shared<CombinedResidual>(std::move(parts), std::move(slot_kinds));
   return joint;
 }
 
