@@ -777,8 +777,8 @@ std::vector<Values> Flips(const ConstraintGraph& graph, const MeasurementSet& se
 // other closed-form start (the nominal geometry moved as one body) and the mirror images of
 // both starts, whole and part by part, are solved too. Then, from the best minimum so far, each
 // of its discrete neighbours (Flips) is solved, and the best of them taken while it fits
-// better: the lamp's minima differ by one point or one arm at a time, and one round of
-// neighbours left 3 of 50 answers on a worse minimum than the truth's, none said. The best fit
+// better: the lamp's minima differ by one point or one arm at a time, and the answer's mirror
+// images alone left 3 of 50 answers on a worse minimum than the truth's, none said. The best fit
 // becomes the solution and the other distinct minima that the fit test does not reject its
 // alternatives.
 void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
