@@ -110,7 +110,7 @@ int Verdict(const ConstraintGraph& graph, const Solution& solution, std::ostream
 
 }  // namespace
 
-int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err) {
+int RunCheck(const CheckCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const ModelSummary summary = Summarize(graph);
@@ -137,16 +137,16 @@ int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err) 
         out << fmt::format("measurements ({}): determine {} of the model's {} degrees of freedom",
                            options.measurements, a.determined, a.model_dof);
         std::string names;
-        for (const std::string& n : solution->undetermined) names += (names.empty() ? "" : ", ") + n;
-        out << (names.empty() ? std::string("\n")
-                              : fmt::format("; undetermined: {}\n", names));
+        for (const std::string& n : solution->undetermined)
+          names += (names.empty() ? "" : ", ") + n;
+        out << (names.empty() ? std::string("\n") : fmt::format("; undetermined: {}\n", names));
       }
     }
     return 0;
   });
 }
 
-int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err) {
+int RunGraph(const GraphCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     std::ostringstream dot;
@@ -267,9 +267,8 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
                         {"seeds", in.stats.seeds},
                         {"seeds_tried", in.stats.seeds_tried},
                         {"refinements", in.stats.refinements},
-                        {"predicted", in.stats.predicted >= 0
-                                          ? nlohmann::json(in.stats.predicted)
-                                          : nlohmann::json(nullptr)},
+                        {"predicted", in.stats.predicted >= 0 ? nlohmann::json(in.stats.predicted)
+                                                              : nlohmann::json(nullptr)},
                         {"matched", in.matched},
                         {"total_delta", in.total_delta}};
     const std::string text = JsonText(result, 2) + "\n";
@@ -339,7 +338,7 @@ int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::o
   });
 }
 
-int RunImport(const ImportOptions& options, std::ostream& out, std::ostream& err) {
+int RunImport(const ImportCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const std::string text = dsl::WriteModel(graph);
@@ -352,7 +351,7 @@ int RunImport(const ImportOptions& options, std::ostream& out, std::ostream& err
   });
 }
 
-int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err) {
+int RunFk(const FkCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     std::vector<JointValue> given;
@@ -364,10 +363,11 @@ int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err) {
       if (it->second < j.limits->first || it->second > j.limits->second) {
         const bool angle = j.type != JointType::kPrismatic;
         const double unit = angle ? 180 / M_PI : 1000;
-        err << fmt::format("cfuse: warning: joint '{}' at {:.6g} {} is beyond its limits [{:.6g}, "
-                           "{:.6g}] {} ({})\n",
-                           j.name, it->second * unit, angle ? "deg" : "mm", j.limits->first * unit,
-                           j.limits->second * unit, angle ? "deg" : "mm", j.where.ToString());
+        err << fmt::format(
+            "cfuse: warning: joint '{}' at {:.6g} {} is beyond its limits [{:.6g}, "
+            "{:.6g}] {} ({})\n",
+            j.name, it->second * unit, angle ? "deg" : "mm", j.limits->first * unit,
+            j.limits->second * unit, angle ? "deg" : "mm", j.where.ToString());
       }
     }
     const Values open = ForwardKinematics(graph, q);

@@ -11,20 +11,20 @@
 
 namespace cfuse::cli {
 
-struct CheckOptions {
+struct CheckCommandOptions {
   std::string model;
   bool json = false;
   // Labelled measurements: which components and joints they and the constraints leave
   // undetermined, from the rank of the stacked Jacobian at the solved estimate.
   std::string measurements;
 };
-int RunCheck(const CheckOptions& options, std::ostream& out, std::ostream& err);
+int RunCheck(const CheckCommandOptions& options, std::ostream& out, std::ostream& err);
 
-struct GraphOptions {
+struct GraphCommandOptions {
   std::string model;
   std::string output;  // empty: stdout
 };
-int RunGraph(const GraphOptions& options, std::ostream& out, std::ostream& err);
+int RunGraph(const GraphCommandOptions& options, std::ostream& out, std::ostream& err);
 
 struct PlanCommandOptions {
   std::string model;
@@ -69,25 +69,25 @@ struct SimulateCommandOptions {
 };
 int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err);
 
-struct ImportOptions {
+struct ImportCommandOptions {
   std::string model;   // a .urdf file (or any model file)
   std::string output;  // empty: stdout
 };
-int RunImport(const ImportOptions& options, std::ostream& out, std::ostream& err);
+int RunImport(const ImportCommandOptions& options, std::ostream& out, std::ostream& err);
 
-struct FkOptions {
+struct FkCommandOptions {
   std::string model;
   std::string joints;  // joint values file; empty: every joint at 0
   std::string output;  // empty: stdout
 };
-int RunFk(const FkOptions& options, std::ostream& out, std::ostream& err);
+int RunFk(const FkCommandOptions& options, std::ostream& out, std::ostream& err);
 
-struct DemoOptions {
+struct DemoCommandOptions {
   std::string picture = "cfuse-demo.png";  // PNG of the measurements and the fitted lamp
   // The tracking part's overlay frames (a directory, replaced); empty: none written.
   std::string track_overlay = "cfuse-demo-track";
 };
-int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err);
+int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& err);
 
 // The embedded copies of examples/lamp.yaml and examples/hinged-box.yaml used by `cfuse demo`
 // (generated at build time).

@@ -31,7 +31,7 @@ namespace {
 namespace fs = std::filesystem;
 
 // The tracking part: true when nearly every frame is verified.
-bool DemoTracking(const DemoOptions& options, std::ostream& out) {
+bool DemoTracking(const DemoCommandOptions& options, std::ostream& out) {
   out << "\ncfuse demo, part 2: Lowe's hinged file box (1992), built in, tracked through a "
          "rendered sequence\n";
   const ConstraintGraph graph =
@@ -125,7 +125,7 @@ bool DemoTracking(const DemoOptions& options, std::ostream& out) {
 
 }  // namespace
 
-int RunDemo(const DemoOptions& options, std::ostream& out, std::ostream& err) {
+int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     // Refused before the demo runs: the picture's place, and an overlay path that is a file
     // (the overlay directory replaces what is there, and must not delete a file).

@@ -97,9 +97,8 @@ std::vector<std::array<int, 3>> RigidTriangles(const ConstraintGraph& g,
     if ((use && !(*use)[k]) || c.slack_block >= 0 || c.kind == "rigid") continue;
     if (c.kind == "distance ==") continue;
     const std::vector<int> comps = ConstraintComponents(g, c);
-    other_kinds = other_kinds || std::any_of(comps.begin(), comps.end(), [&](int a) {
-                    return !g.components[a].rigid;
-                  });
+    other_kinds = other_kinds || std::any_of(comps.begin(), comps.end(),
+                                             [&](int a) { return !g.components[a].rigid; });
   }
   if (other_kinds) {
     const Eigen::MatrixXd free = FreeDirections(g, g.nominal, use);
@@ -163,212 +162,258 @@ std::string ModelPointName(const ConstraintGraph& graph, int component, int feat
   return feature < 0 ? c.name : c.name + "." + c.points[feature].name;
 }
 
-FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart* given) {
-  const int num_components = static_cast<int>(g.components.size());
-  const int num_constraints = static_cast<int>(g.constraints.size());
-  std::vector<int> component_of_block(g.blocks.size(), -1);
-  for (int c = 0; c < num_components; ++c) component_of_block[g.components[c].block] = c;
-  std::vector<std::vector<int>> components_of(num_constraints);
-  for (int k = 0; k < num_constraints; ++k) {
-    for (int b : g.constraints[k].blocks) {
-      const int c = component_of_block[b];
-      std::vector<int>& v = components_of[k];
-      if (c >= 0 && std::find(v.begin(), v.end(), c) == v.end()) v.push_back(c);
+namespace {
+
+// Hel-Or & Werman's fusion order (section 6), built one step at a time: which components are
+// matched and which constraints fused so far, and the plan's levels in the order taken.
+class FusionPlanner {
+ public:
+  FusionPlanner(const ConstraintGraph& g, bool image_data, const PlanStart* given)
+      : g_(g),
+        image_data_(image_data),
+        given_(given),
+        num_components_(static_cast<int>(g.components.size())),
+        num_constraints_(static_cast<int>(g.constraints.size())),
+        components_of_(num_constraints_),
+        matched_(num_components_, false),
+        fused_(num_constraints_, false) {
+    std::vector<int> component_of_block(g.blocks.size(), -1);
+    for (int c = 0; c < num_components_; ++c) component_of_block[g.components[c].block] = c;
+    for (int k = 0; k < num_constraints_; ++k) {
+      for (int b : g.constraints[k].blocks) {
+        const int c = component_of_block[b];
+        std::vector<int>& v = components_of_[k];
+        if (c >= 0 && std::find(v.begin(), v.end(), c) == v.end()) v.push_back(c);
+      }
+    }
+    // The start: a rigid component's seed features, or a rigid triangle of points.
+    if (given) {
+      start_ = given->components;
+      if (start_.size() == 1 && g.components[start_[0]].rigid) rigid_start_ = start_[0];
+    } else {
+      rigid_start_ = LargestRigidComponent(g);
+      if (rigid_start_ >= 0) {
+        start_ = {rigid_start_};
+      } else if (const auto triangles = RigidTriangles(g); !triangles.empty()) {
+        start_.assign(triangles[0].begin(), triangles[0].end());
+      }
     }
   }
 
-  // The start: a rigid component's seed features, or a rigid triangle of points.
-  std::vector<int> start;
-  int rigid_start = -1;
-  if (given) {
-    start = given->components;
-    if (start.size() == 1 && g.components[start[0]].rigid) rigid_start = start[0];
-  } else {
-    rigid_start = LargestRigidComponent(g);
-    if (rigid_start >= 0) {
-      start = {rigid_start};
-    } else if (const auto triangles = RigidTriangles(g); !triangles.empty()) {
-      start.assign(triangles[0].begin(), triangles[0].end());
+  FusionPlan Plan() {
+    while (Remaining(fused_) && Remaining(matched_)) {
+      FuseReady();
+      // (b) Components a fused constraint touches, in model order; before each, (a) again, so
+      // that a constraint is fused as soon as its components are matched.
+      MatchReached();
+      if (!Remaining(fused_) || !Remaining(matched_)) break;
+      int pick = PickHeld();
+      const std::vector<int> with_pick = FusedWith(pick);
+      if (pick < 0) {
+        pick = PickOnStart();
+        if (pick < 0) {
+          // No constraint on the start set: match it first, then go on.
+          for (int c : start_) {
+            if (!matched_[c]) Match(c);
+          }
+          continue;
+        }
+      }
+      Fuse(pick);
+      for (int k : with_pick) Fuse(k);
     }
-  }
-  auto in_start = [&](int c) { return std::find(start.begin(), start.end(), c) != start.end(); };
+    // The components the last fused constraints reached, then those no constraint touches (the
+    // start one first), then the constraints left.
+    MatchReached();
+    if (!start_.empty() && !matched_[start_[0]] && rigid_start_ >= 0) Match(start_[0]);
+    for (int c = 0; c < num_components_; ++c) {
+      if (matched_[c]) continue;
+      FuseReady();
+      Match(c);
+    }
+    for (int k = 0; k < num_constraints_; ++k) {
+      if (!fused_[k]) Fuse(k);
+    }
+    plan_.trailing = std::move(pending_);
 
-  FusionPlan plan;
-  std::vector<bool> matched(num_components, false), fused(num_constraints, false);
-  std::vector<int> pending;
-  std::vector<int> components_of_fused;  // components touched by fused constraints
-  auto fuse = [&](int k) {
-    fused[k] = true;
-    pending.push_back(k);
-    for (int c : components_of[k]) components_of_fused.push_back(c);
-  };
-  auto match = [&](int c) {
-    matched[c] = true;
-    const Component& comp = g.components[c];
+    // A point model's seed: its first three levels, when they are the rigid triangle.
+    if (rigid_start_ < 0 && start_.size() == 3 && plan_.levels.size() >= 3) {
+      std::vector<int> first = {plan_.levels[0].component, plan_.levels[1].component,
+                                plan_.levels[2].component};
+      std::vector<int> s = start_;
+      std::sort(first.begin(), first.end());
+      std::sort(s.begin(), s.end());
+      if (first == s) plan_.seed_levels = 3;
+    }
+    return std::move(plan_);
+  }
+
+ private:
+  static bool Remaining(const std::vector<bool>& done) {
+    return std::count(done.begin(), done.end(), false) > 0;
+  }
+  bool InStart(int c) const { return std::find(start_.begin(), start_.end(), c) != start_.end(); }
+
+  void Fuse(int k) {
+    fused_[k] = true;
+    pending_.push_back(k);
+    for (int c : components_of_[k]) components_of_fused_.push_back(c);
+  }
+
+  // The component's levels, with the constraints fused since the last level on the first.
+  void Match(int c) {
+    matched_[c] = true;
+    const Component& comp = g_.components[c];
     int seed_size = 0;
     std::vector<int> features =
-        comp.rigid ? SeedFirstFeatures(comp, image_data, &seed_size) : std::vector<int>{-1};
-    if (given && c == rigid_start && !given->features.empty()) {
+        comp.rigid ? SeedFirstFeatures(comp, image_data_, &seed_size) : std::vector<int>{-1};
+    if (given_ && c == rigid_start_ && !given_->features.empty()) {
       // The given seed features first, then the rest in model order.
-      features = given->features;
+      features = given_->features;
       seed_size = static_cast<int>(features.size());
       for (int f = 0; f < static_cast<int>(comp.points.size()); ++f) {
-        if (std::find(given->features.begin(), given->features.end(), f) == given->features.end()) {
+        if (std::find(given_->features.begin(), given_->features.end(), f) ==
+            given_->features.end()) {
           features.push_back(f);
         }
       }
     }
-    if (plan.levels.empty()) {
-      plan.seed_levels = comp.rigid ? seed_size : 0;
-      plan.seed_is_rigid_component = comp.rigid && seed_size > 0;
+    if (plan_.levels.empty()) {
+      plan_.seed_levels = comp.rigid ? seed_size : 0;
+      plan_.seed_is_rigid_component = comp.rigid && seed_size > 0;
     }
     for (int f : features) {
       PlanLevel level;
-      level.constraints = std::move(pending);
-      pending.clear();
+      level.constraints = std::move(pending_);
+      pending_.clear();
       level.component = c;
       level.feature = f;
-      plan.levels.push_back(std::move(level));
+      plan_.levels.push_back(std::move(level));
     }
-  };
-  auto remaining = [&](const std::vector<bool>& done) {
-    return std::count(done.begin(), done.end(), false) > 0;
-  };
+  }
 
   // (a) Constraints on matched components only.
-  auto fuse_ready = [&] {
-    for (int k = 0; k < num_constraints; ++k) {
-      if (fused[k]) continue;
-      const std::vector<int>& comps = components_of[k];
-      if (std::all_of(comps.begin(), comps.end(), [&](int c) { return matched[c]; })) fuse(k);
+  void FuseReady() {
+    for (int k = 0; k < num_constraints_; ++k) {
+      if (fused_[k]) continue;
+      const std::vector<int>& comps = components_of_[k];
+      if (std::all_of(comps.begin(), comps.end(), [&](int c) { return matched_[c]; })) Fuse(k);
     }
-  };
-  while (remaining(fused) && remaining(matched)) {
-    fuse_ready();
-    // (b) Components a fused constraint touches, in model order; before each, (a) again, so
-    // that a constraint is fused as soon as its components are matched.
-    for (int c = 0; c < num_components; ++c) {
-      if (!matched[c] && std::find(components_of_fused.begin(), components_of_fused.end(), c) !=
-                             components_of_fused.end()) {
-        fuse_ready();
-        match(c);
+  }
+
+  // Each unmatched component a fused constraint touches, in model order, after (a).
+  void MatchReached() {
+    for (int c = 0; c < num_components_; ++c) {
+      if (!matched_[c] && std::find(components_of_fused_.begin(), components_of_fused_.end(), c) !=
+                              components_of_fused_.end()) {
+        FuseReady();
+        Match(c);
       }
     }
-    if (!remaining(fused) || !remaining(matched)) break;
-    // (c) One constraint touching a matched component: unmatched components in the start
-    // first, then the fewest unmatched, then (for one unmatched component) the one most held
-    // to matched components (rows of the constraints between it and them), then the most
-    // matched, then model order.
-    auto rows_to_matched = [&](int u) {
-      int rows = 0;
-      for (int k = 0; k < num_constraints; ++k) {
-        if (fused[k]) continue;
-        const std::vector<int>& comps = components_of[k];
-        if (std::find(comps.begin(), comps.end(), u) == comps.end()) continue;
-        if (std::all_of(comps.begin(), comps.end(), [&](int c) { return c == u || matched[c]; })) {
-          rows += g.constraints[k].residual->dimension();
-        }
+  }
+
+  // Rows of the unfused constraints between unmatched component u and matched ones.
+  int RowsToMatched(int u) const {
+    int rows = 0;
+    for (int k = 0; k < num_constraints_; ++k) {
+      if (fused_[k]) continue;
+      const std::vector<int>& comps = components_of_[k];
+      if (std::find(comps.begin(), comps.end(), u) == comps.end()) continue;
+      if (std::all_of(comps.begin(), comps.end(), [&](int c) { return c == u || matched_[c]; })) {
+        rows += g_.constraints[k].residual->dimension();
       }
-      return rows;
-    };
+    }
+    return rows;
+  }
+
+  // (c) One constraint touching a matched component: unmatched components in the start
+  // first, then the fewest unmatched, then (for one unmatched component) the one most held
+  // to matched components (rows of the constraints between it and them), then the most
+  // matched, then model order. -1 when none touches a matched component.
+  int PickHeld() const {
     int pick = -1;
     std::tuple<int, int, int, int> best_key;
-    for (int k = 0; k < num_constraints; ++k) {
-      if (fused[k]) continue;
+    for (int k = 0; k < num_constraints_; ++k) {
+      if (fused_[k]) continue;
       int m = 0, u = 0, u_outside_start = 0, last_unmatched = -1;
-      for (int c : components_of[k]) {
-        if (matched[c]) {
+      for (int c : components_of_[k]) {
+        if (matched_[c]) {
           ++m;
         } else {
           ++u;
-          u_outside_start += in_start(c) ? 0 : 1;
+          u_outside_start += InStart(c) ? 0 : 1;
           last_unmatched = c;
         }
       }
       if (m == 0) continue;
-      const int held = u == 1 ? rows_to_matched(last_unmatched) : 0;
+      const int held = u == 1 ? RowsToMatched(last_unmatched) : 0;
       const std::tuple<int, int, int, int> key{u_outside_start, u, -held, -m};
       if (pick < 0 || key < best_key) {
         pick = k;
         best_key = key;
       }
     }
-    // (c') Beyond the paper: with a constraint that reaches one unmatched component, every
-    // other constraint between that component and matched ones is fused too, so that its match
-    // is predicted (and tested) by all of them rather than by one.
-    std::vector<int> with_pick;
-    if (pick >= 0) {
-      std::vector<int> unmatched;
-      for (int c : components_of[pick]) {
-        if (!matched[c]) unmatched.push_back(c);
-      }
-      if (unmatched.size() == 1) {
-        const int u = unmatched[0];
-        for (int k = 0; k < num_constraints; ++k) {
-          if (fused[k] || k == pick) continue;
-          const std::vector<int>& comps = components_of[k];
-          if (std::find(comps.begin(), comps.end(), u) != comps.end() &&
-              std::all_of(comps.begin(), comps.end(),
-                          [&](int c) { return c == u || matched[c]; })) {
-            with_pick.push_back(k);
-          }
-        }
-      }
-    }
-    // (d) Else: at the start, a constraint on the start set (touching the rigid start
-    // component, or within the triangle); later, the first one left in model order.
-    if (pick < 0) {
-      const bool at_start = std::none_of(matched.begin(), matched.end(), [](bool b) { return b; });
-      for (int k = 0; k < num_constraints && pick < 0; ++k) {
-        if (fused[k]) continue;
-        const std::vector<int>& comps = components_of[k];
-        const bool on_start =
-            rigid_start >= 0
-                ? std::any_of(comps.begin(), comps.end(), in_start)
-                : comps.size() >= 2 && std::all_of(comps.begin(), comps.end(), in_start);
-        if (!at_start || start.empty() || on_start) pick = k;
-      }
-      if (pick < 0) {
-        // No constraint on the start set: match it first, then go on.
-        for (int c : start) {
-          if (!matched[c]) match(c);
-        }
-        continue;
-      }
-    }
-    fuse(pick);
-    for (int k : with_pick) fuse(k);
+    return pick;
   }
-  // The components the last fused constraints reached, then those no constraint touches (the
-  // start one first), then the constraints left.
-  for (int c = 0; c < num_components; ++c) {
-    if (!matched[c] && std::find(components_of_fused.begin(), components_of_fused.end(), c) !=
-                           components_of_fused.end()) {
-      fuse_ready();
-      match(c);
-    }
-  }
-  if (!start.empty() && !matched[start[0]] && rigid_start >= 0) match(start[0]);
-  for (int c = 0; c < num_components; ++c) {
-    if (matched[c]) continue;
-    fuse_ready();
-    match(c);
-  }
-  for (int k = 0; k < num_constraints; ++k) {
-    if (!fused[k]) fuse(k);
-  }
-  plan.trailing = std::move(pending);
 
-  // A point model's seed: its first three levels, when they are the rigid triangle.
-  if (rigid_start < 0 && start.size() == 3 && plan.levels.size() >= 3) {
-    std::vector<int> first = {plan.levels[0].component, plan.levels[1].component,
-                              plan.levels[2].component};
-    std::vector<int> s = start;
-    std::sort(first.begin(), first.end());
-    std::sort(s.begin(), s.end());
-    if (first == s) plan.seed_levels = 3;
+  // (c') Beyond the paper: with a constraint that reaches one unmatched component, every
+  // other constraint between that component and matched ones is fused too, so that its match
+  // is predicted (and tested) by all of them rather than by one.
+  std::vector<int> FusedWith(int pick) const {
+    std::vector<int> with_pick;
+    if (pick < 0) return with_pick;
+    std::vector<int> unmatched;
+    for (int c : components_of_[pick]) {
+      if (!matched_[c]) unmatched.push_back(c);
+    }
+    if (unmatched.size() != 1) return with_pick;
+    const int u = unmatched[0];
+    for (int k = 0; k < num_constraints_; ++k) {
+      if (fused_[k] || k == pick) continue;
+      const std::vector<int>& comps = components_of_[k];
+      if (std::find(comps.begin(), comps.end(), u) != comps.end() &&
+          std::all_of(comps.begin(), comps.end(), [&](int c) { return c == u || matched_[c]; })) {
+        with_pick.push_back(k);
+      }
+    }
+    return with_pick;
   }
-  return plan;
+
+  // (d) Else: at the start, a constraint on the start set (touching the rigid start
+  // component, or within the triangle); later, the first one left in model order. -1 when
+  // no constraint is on the start set.
+  int PickOnStart() const {
+    const bool at_start = std::none_of(matched_.begin(), matched_.end(), [](bool b) { return b; });
+    for (int k = 0; k < num_constraints_; ++k) {
+      if (fused_[k]) continue;
+      const std::vector<int>& comps = components_of_[k];
+      const auto in_start = [&](int c) { return InStart(c); };
+      const bool on_start =
+          rigid_start_ >= 0
+              ? std::any_of(comps.begin(), comps.end(), in_start)
+              : comps.size() >= 2 && std::all_of(comps.begin(), comps.end(), in_start);
+      if (!at_start || start_.empty() || on_start) return k;
+    }
+    return -1;
+  }
+
+  const ConstraintGraph& g_;
+  const bool image_data_;
+  const PlanStart* given_;
+  const int num_components_, num_constraints_;
+  std::vector<std::vector<int>> components_of_;  // per constraint, the components it touches
+  std::vector<int> start_;
+  int rigid_start_ = -1;
+  FusionPlan plan_;
+  std::vector<bool> matched_, fused_;
+  std::vector<int> pending_;              // fused since the last level
+  std::vector<int> components_of_fused_;  // components touched by fused constraints
+};
+
+}  // namespace
+
+FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart* given) {
+  return FusionPlanner(g, image_data, given).Plan();
 }
 
 std::string FormatPlan(const ConstraintGraph& g, const FusionPlan& plan) {
@@ -383,9 +428,10 @@ std::string FormatPlan(const ConstraintGraph& g, const FusionPlan& plan) {
   } else {
     // Without a seed the interpretation tree starts from the prior alone: each level gated about
     // a pose nothing has fixed yet, which in clutter matches slowly or wrongly.
-    out += "warning: no seed: no three points are held rigid (by a rigid component or by "
-           "distances between them), so interpretation starts from the prior alone; make the "
-           "part a rigid component, or add the distances that hold it rigid\n";
+    out +=
+        "warning: no seed: no three points are held rigid (by a rigid component or by "
+        "distances between them), so interpretation starts from the prior alone; make the "
+        "part a rigid component, or add the distances that hold it rigid\n";
   }
   auto names = [&](const std::vector<int>& constraints) {
     std::string s;

@@ -9,8 +9,20 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/so3.h"
+#include "small_blas.h"
 
 namespace cfuse {
+
+using internal::ForwardSubstitute;
+using internal::QuadraticForm;
+using internal::ResetRotationBlock;
+using internal::Run;
+using internal::Scratch;
+using internal::ScratchVector;
+using internal::SmallProduct;
+using internal::SmallProductTransposed;
+using internal::SmallTransposedProduct;
+using internal::SubtractOuterProduct;
 
 const char* StatusName(FusionSummary::Status status) {
   switch (status) {
@@ -60,25 +72,6 @@ GaussianState MakePrior(const std::vector<Block>& blocks, const Values& mean,
 
 namespace {
 
-// A matrix view on a buffer that only grows, so that steady-state updates do not allocate.
-Eigen::Map<Eigen::MatrixXd> Scratch(std::vector<double>* storage, int rows, int cols) {
-  const size_t size = static_cast<size_t>(rows) * static_cast<size_t>(cols);
-  if (storage->size() < size) storage->resize(size);
-  return {storage->data(), rows, cols};
-}
-
-Eigen::Map<Eigen::VectorXd> ScratchVector(std::vector<double>* storage, int size) {
-  if (storage->size() < static_cast<size_t>(size)) storage->resize(size);
-  return {storage->data(), size};
-}
-
-// A maximal run of consecutive covariance coordinates [first, first + size) of the support,
-// at `at` in the support's order. The support is a few such runs (blocks join groups mostly in
-// the order they were declared), so the updates below are dense block products.
-struct Run {
-  int first, at, size;
-};
-
 struct Workspace {
   std::vector<int> index;           // the factor's tangent coordinates, slot order
   std::vector<int> support_blocks;  // blocks correlated with the factor's, by tangent offset
@@ -100,110 +93,314 @@ constexpr double kRankTolerance = 1e-12;
 // far from dependent.
 constexpr double kWellConditioned = 1e-6;
 
-// P(S, S) -= W Wᵀ over the support S, one column of W at a time. Each rank-one step updates
-// both P(i, j) and P(j, i) with the same product w_i w_j (multiplication commutes exactly in
-// floating point), so P stays exactly symmetric without a triangular update and a mirror copy,
-// and every inner loop runs down a contiguous column.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
-// The hottest loop of the filter: compiled also for AVX2 + FMA and chosen at run time by the
-// CPU's features, so the library still runs on any x86-64.
-__attribute__((target_clones("arch=x86-64-v3", "default")))
-#endif
-void SubtractOuterProductColumns(const Run* runs, int num_runs, const double* w, double sign,
-                                 double* P, long ld) {
-  for (int c = 0; c < num_runs; ++c) {
-    for (int j = 0; j < runs[c].size; ++j) {
-      const double wj = sign * w[runs[c].at + j];  // sign is ±1: exact, P stays symmetric
-      double* column = P + (runs[c].first + j) * ld;
-      for (int r = 0; r < num_runs; ++r) {
-        double* out = column + runs[r].first;
-        const double* in = w + runs[r].at;
-        for (int i = 0; i < runs[r].size; ++i) out[i] -= in[i] * wj;
+// The tangent coordinates the factor touches (the Jacobian's columns, `index`), and its
+// support: every coordinate of the blocks correlated with them (`support`, as `runs`), with
+// where each column sits in it (`position`).
+void GatherSupport(const Factor& factor, const GaussianState& state, Workspace* ws) {
+  const std::vector<Block>& blocks = state.blocks;
+  ws->index.clear();
+  for (int b : factor.blocks) {
+    const Block& block = blocks.at(b);
+    for (int i = 0; i < TangentDim(block.kind); ++i) ws->index.push_back(block.tangent_offset + i);
+  }
+  if (state.groups.num_blocks() == static_cast<int>(blocks.size())) {
+    state.groups.Support(factor.blocks, &ws->support_blocks);
+  } else {
+    ws->support_blocks.resize(blocks.size());
+    std::iota(ws->support_blocks.begin(), ws->support_blocks.end(), 0);
+  }
+  // Blocks are usually laid out in id order already (ModelBuilder), so the sort is rare.
+  const auto by_offset = [&](int x, int y) {
+    return blocks[x].tangent_offset < blocks[y].tangent_offset;
+  };
+  if (!std::is_sorted(ws->support_blocks.begin(), ws->support_blocks.end(), by_offset)) {
+    std::sort(ws->support_blocks.begin(), ws->support_blocks.end(), by_offset);
+  }
+  ws->support.clear();
+  ws->runs.clear();
+  for (int b : ws->support_blocks) {
+    const int first = blocks[b].tangent_offset, dim = TangentDim(blocks[b].kind);
+    if (!ws->runs.empty() && ws->runs.back().first + ws->runs.back().size == first) {
+      ws->runs.back().size += dim;
+    } else {
+      ws->runs.push_back({first, static_cast<int>(ws->support.size()), dim});
+    }
+    for (int i = 0; i < dim; ++i) ws->support.push_back(first + i);
+  }
+  const std::vector<int>& S = ws->support;
+  const int s = static_cast<int>(S.size()), a = static_cast<int>(ws->index.size());
+  ws->position.resize(a);
+  for (int j = 0; j < a; ++j) {
+    ws->position[j] =
+        static_cast<int>(std::lower_bound(S.begin(), S.end(), ws->index[j]) - S.begin());
+    CFUSE_CHECK(ws->position[j] < s && S[ws->position[j]] == ws->index[j]);
+  }
+}
+
+// The update's prior on the support: P(S, a), P(a, a) and the columns' prior variances; its
+// prior mean μ in the chart (0, or the offset the sequence carries) and the first iterate δ
+// (μ, or `linearize_at` on the factor's blocks), over the support and over its columns.
+void GatherPrior(const Factor& factor, const GaussianState& state, const Values* linearize_at,
+                 const Eigen::VectorXd* offset, Workspace* ws) {
+  const std::vector<Block>& blocks = state.blocks;
+  const Eigen::MatrixXd& P = state.covariance;
+  const std::vector<int>& S = ws->support;
+  const int s = static_cast<int>(S.size()), a = static_cast<int>(ws->index.size());
+  const int n = state.dim();
+  Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws->P_sa, s, a);
+  for (int j = 0; j < a; ++j) {
+    for (const Run& run : ws->runs) {
+      P_sa.col(j).segment(run.at, run.size) = P.col(ws->index[j]).segment(run.first, run.size);
+    }
+  }
+  Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws->P_aa, a, a);
+  for (int i = 0; i < a; ++i) P_aa.row(i) = P_sa.row(ws->position[i]);
+  Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws->prior_aa, a);
+  for (int j = 0; j < a; ++j) prior_a(j) = state.prior_variance[ws->index[j]];
+
+  // δ over the support; the iterations start at `linearize_at` if given.
+  Eigen::Map<Eigen::VectorXd> delta = ScratchVector(&ws->delta, s);
+  Eigen::Map<Eigen::VectorXd> delta_a = ScratchVector(&ws->delta_a, a);
+  // The prior mean of this update in the chart: 0, or the offset carried by the sequence.
+  Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws->mu, s);
+  Eigen::Map<Eigen::VectorXd> mu_a = ScratchVector(&ws->mu_a, a);
+  if (offset) {
+    CFUSE_CHECK_EQ(offset->size(), n);
+    for (int j = 0; j < s; ++j) mu(j) = (*offset)(S[j]);
+  } else {
+    mu.setZero();
+  }
+  for (int j = 0; j < a; ++j) mu_a(j) = mu(ws->position[j]);
+  delta = mu;
+  delta_a = mu_a;
+  if (linearize_at) {
+    int column = 0;
+    for (int b : factor.blocks) {
+      LocalCoordinatesOfBlock(blocks[b], state.mean, *linearize_at, delta_a.data() + column);
+      column += TangentDim(blocks[b].kind);
+    }
+    for (int j = 0; j < a; ++j) delta(ws->position[j]) = delta_a(j);
+  }
+}
+
+// A measurement's whitened directions (B = L⁻ᵀ with S = H P0 Hᵀ + R = L Lᵀ): A = Hᵀ B and
+// z = Bᵀ innovation, and M = Aᵀ P0 A + Bᵀ R B for the Joseph form. False when S is not
+// positive definite.
+bool WhitenMeasurement(const Eigen::MatrixXd& noise, const Eigen::Map<Eigen::MatrixXd>& H,
+                       const Eigen::Map<Eigen::MatrixXd>& P_aa,
+                       const Eigen::Map<Eigen::VectorXd>& innovation, Workspace* ws) {
+  const int m = static_cast<int>(H.rows()), a = static_cast<int>(H.cols());
+  Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws->HP, m, a), S_mat = Scratch(&ws->S, m, m);
+  Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws->A, a, m);
+  Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws->z, m);
+  SmallProduct(H, P_aa, &HP);
+  SmallProductTransposed(HP, H, &S_mat);
+  S_mat += noise;
+  ws->llt.compute(S_mat);
+  if (ws->llt.info() != Eigen::Success) return false;
+  A = H.transpose();
+  z = innovation;
+  ForwardSubstitute(ws->llt.matrixLLT(), &A, &z);
+  // M = Aᵀ P0 A + Bᵀ R B with B = L⁻ᵀ, for the Joseph form below (from the A used: its
+  // roundoff is what the Joseph form absorbs).
+  Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws->M, m, m), B = Scratch(&ws->B, m, m);
+  Eigen::Map<Eigen::VectorXd> unused = ScratchVector(&ws->Su, m);
+  B.setIdentity();
+  ForwardSubstitute(ws->llt.matrixLLT(), &B, &unused);
+  Eigen::Map<Eigen::MatrixXd> R = Scratch(&ws->R, m, m), BRB = Scratch(&ws->BRB, m, m);
+  R = noise;
+  QuadraticForm(A, P_aa, &ws->PG, &M);
+  QuadraticForm(B, R, &ws->PG, &BRB);
+  M += BRB;
+  return true;
+}
+
+// A constraint's whitened directions: A = Hᵀ B and z = Bᵀ innovation over the directions it
+// still constrains, B = t ρ^(-1/2), and M = Aᵀ P0 A for the Joseph form. Returns their number
+// k; 0 when none is left; -1 (with the status in `summary`) when the first iteration finds the
+// constraint contradicting the state or wholly redundant.
+int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eigen::MatrixXd>& P_aa,
+                     const Eigen::Map<Eigen::VectorXd>& prior_a,
+                     const Eigen::Map<Eigen::VectorXd>& innovation, bool first,
+                     const FusionOptions& options, Workspace* ws, FusionSummary* summary) {
+  const int m = static_cast<int>(H.rows()), a = static_cast<int>(H.cols());
+  Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws->HP, m, a), S_mat = Scratch(&ws->S, m, m);
+  Eigen::Map<Eigen::MatrixXd> S_init = Scratch(&ws->S_init, m, m), U = Scratch(&ws->U, m, m);
+  Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws->lambda, m);
+  Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws->A, a, m);
+  Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws->z, m);
+  // The directions of the residual space, each normalised to unit variance under the
+  // initial prior (tᵀ S_init t = 1), with ρ = tᵀ S t the fraction of it left: a direction
+  // with ρ negligible is already determined. Rows that are (numerically) combinations of
+  // others have no direction of their own: found on the rows scaled to unit prior variance,
+  // where every eigenvalue is relative to 1. Without that test their direction had roundoff
+  // for both variances and, when the ratio passed the tolerance, was fused with a garbage
+  // gain that broke the covariance's positive semidefiniteness (tests/stress).
+  HP.noalias() = H * prior_a.asDiagonal();
+  SmallProductTransposed(HP, H, &S_init);
+  Eigen::Map<Eigen::VectorXd> d = ScratchVector(&ws->Su, m);
+  for (int i = 0; i < m; ++i) d(i) = S_init(i, i) > 0 ? 1 / std::sqrt(S_init(i, i)) : 0.0;
+  for (int j = 0; j < m; ++j) {
+    for (int i = 0; i < m; ++i) S_init(i, j) *= d(i) * d(j);
+  }
+  // T (m x rank): the directions, or (below) a basis of them.
+  Eigen::Map<Eigen::MatrixXd> T = Scratch(&ws->T, m, m);
+  int rank = 0;
+  double contradiction = 0;
+  if (m == 1) {
+    T(0, 0) = d(0);
+    rank = d(0) > 0 ? 1 : 0;
+  } else {
+    ws->eigen.compute(S_init);
+    for (int i = 0; i < m; ++i) {
+      const double mu = ws->eigen.eigenvalues()(i);
+      if (mu > kRankTolerance * m) {
+        T.col(rank++) = d.cwiseProduct(ws->eigen.eigenvectors().col(i)) / std::sqrt(mu);
+      } else if (first) {
+        // Consistent only if the rows' innovations are the same combination (measured in
+        // the rows' prior deviations).
+        contradiction =
+            std::max(contradiction,
+                     std::abs(d.cwiseProduct(ws->eigen.eigenvectors().col(i)).dot(innovation)));
       }
     }
   }
-}
-
-// P(S, S) -= Σ_l sign_l w_l w_lᵀ, w_l the columns of W, sign_l = ±1 (all +1 if `signs` is null).
-void SubtractOuterProduct(const std::vector<Run>& runs, const Eigen::Map<Eigen::MatrixXd>& W,
-                          const double* signs, Eigen::MatrixXd* P) {
-  for (int l = 0; l < W.cols(); ++l) {
-    SubtractOuterProductColumns(runs.data(), static_cast<int>(runs.size()), W.col(l).data(),
-                                signs ? signs[l] : 1.0, P->data(), P->rows());
-  }
-}
-
-// Moves rows and columns o..o+2 (a rotation block, inside the support) from the chart at x0
-// to the chart at x0 ⊞ δ: P <- G P Gᵀ with G = Jr(δθ) on that block, exactly symmetric.
-void ResetRotationBlock(const std::vector<Run>& runs, int o, const Eigen::Matrix3d& G,
-                        Eigen::MatrixXd* P) {
-  const Eigen::Matrix3d diagonal = G * P->block<3, 3>(o, o) * G.transpose();
-  for (const Run& run : runs) {
-    const Eigen::Matrix<double, 3, Eigen::Dynamic> rows = G * P->block(o, run.first, 3, run.size);
-    P->block(o, run.first, 3, run.size) = rows;
-    P->block(run.first, o, run.size, 3) = rows.transpose();
-  }
-  P->block<3, 3>(o, o) = 0.5 * (diagonal + diagonal.transpose());
-}
-
-// C = A B for small dynamic matrices, coefficient by coefficient.
-void SmallProduct(const Eigen::Map<Eigen::MatrixXd>& A, const Eigen::Map<Eigen::MatrixXd>& B,
-                  Eigen::Map<Eigen::MatrixXd>* C) {
-  for (int j = 0; j < B.cols(); ++j) {
-    for (int i = 0; i < A.rows(); ++i) {
-      double sum = 0;
-      for (int l = 0; l < A.cols(); ++l) sum += A(i, l) * B(l, j);
-      (*C)(i, j) = sum;
+  // The variances on T, Tᵀ S T, as Gᵀ P0 G with G = Hᵀ T: forming S = H P0 Hᵀ first loses
+  // them to cancellation where rows are nearly dependent (T then large).
+  Eigen::Map<Eigen::MatrixXd> Tr = Scratch(&ws->T, m, rank), G = Scratch(&ws->G, a, rank);
+  Eigen::Map<Eigen::MatrixXd> Sr = Scratch(&ws->C, rank, rank);
+  if (m > 1 && rank == m && ws->eigen.eigenvalues()(0) > kWellConditioned) {
+    // Rows far from dependent: the eigenvectors u of S, accurate there (the directions of
+    // the filter before issue 8, with which the interpretation tree was tuned).
+    SmallProduct(H, P_aa, &HP);
+    SmallProductTransposed(HP, H, &S_mat);
+    ws->eigen.compute(S_mat);
+    Eigen::Map<Eigen::VectorXd> v = ScratchVector(&ws->v, m), Sv = ScratchVector(&ws->Sv, m);
+    for (int j = 0; j < m; ++j) {
+      v = ws->eigen.eigenvectors().col(j).cwiseQuotient(d);  // uᵀ S_init u = vᵀ (scaled) v
+      Sv.noalias() = S_init * v;
+      Tr.col(j) = ws->eigen.eigenvectors().col(j) / std::sqrt(v.dot(Sv));
+    }
+    SmallTransposedProduct(H, Tr, &G);
+    QuadraticForm(G, P_aa, &ws->PG, &Sr);
+    U.topLeftCorner(m, m).setIdentity();
+    lambda.head(m) = Sr.diagonal();
+  } else {
+    // Else the generalised eigenvectors of (S, S_init) on the rows' range.
+    SmallTransposedProduct(H, Tr, &G);
+    QuadraticForm(G, P_aa, &ws->PG, &Sr);
+    if (rank == 1) {
+      U(0, 0) = 1;
+      lambda(0) = Sr(0, 0);
+    } else if (rank > 1) {
+      ws->eigen.compute(Sr);
+      U.topLeftCorner(rank, rank) = ws->eigen.eigenvectors();
+      lambda.head(rank) = ws->eigen.eigenvalues();
     }
   }
+  // The innovation on T, for the contradiction test.
+  Eigen::Map<Eigen::VectorXd> Ti = ScratchVector(&ws->Ti, rank);
+  for (int j = 0; j < rank; ++j) Ti(j) = Tr.col(j).dot(innovation);
+  ws->keep.clear();
+  for (int i = 0; i < rank; ++i) {
+    if (lambda(i) <= options.degeneracy_tolerance) {
+      // Already determined: the linearised factor is consistent only if its innovation
+      // has no component along t (the state cannot move along Hᵀt).
+      if (first) {
+        contradiction = std::max(contradiction, std::abs(U.col(i).head(rank).dot(Ti)));
+      }
+      continue;
+    }
+    ws->keep.push_back(i);
+  }
+  if (first) {
+    summary->contradiction = contradiction;
+    if (contradiction > options.contradiction_tolerance) {
+      summary->status = FusionSummary::Status::kContradiction;
+      return -1;
+    }
+    if (ws->keep.empty()) {
+      summary->status = FusionSummary::Status::kRedundant;
+      return -1;
+    }
+    summary->rows_fused = static_cast<int>(ws->keep.size());
+  }
+  // Later iterations keep the directions of the first (a direction's status cannot change
+  // between them without a contradiction, which the first iteration refused).
+  // Nothing left to fuse (at the final iterate: the previous linearisation's covariance
+  // update then stands, its A and W still in place).
+  if (ws->keep.empty()) return 0;
+  const int k = static_cast<int>(ws->keep.size());
+  Eigen::Map<Eigen::MatrixXd> B = Scratch(&ws->B, m, k);
+  for (int j = 0; j < k; ++j) {
+    const double scale = 1 / std::sqrt(lambda(ws->keep[j]));
+    B.col(j).setZero();
+    A.col(j).setZero();
+    for (int l = 0; l < rank; ++l) {
+      const double q = U(l, ws->keep[j]) * scale;
+      B.col(j) += q * Tr.col(l);
+      A.col(j) += q * G.col(l);
+    }
+    z(j) = B.col(j).dot(innovation);
+  }
+  // M = Aᵀ P0 A, for the Joseph form below: from the A used, as roundoff in it is what the
+  // Joseph form absorbs.
+  Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws->M, k, k);
+  QuadraticForm(Scratch(&ws->A, a, k), P_aa, &ws->PG, &M);
+  return k;
 }
 
-// C = A Bᵀ for small dynamic matrices.
-void SmallProductTransposed(const Eigen::Map<Eigen::MatrixXd>& A,
-                            const Eigen::Map<Eigen::MatrixXd>& B, Eigen::Map<Eigen::MatrixXd>* C) {
-  for (int j = 0; j < B.rows(); ++j) {
-    for (int i = 0; i < A.rows(); ++i) {
-      double sum = 0;
-      for (int l = 0; l < A.cols(); ++l) sum += A(i, l) * B(j, l);
-      (*C)(i, j) = sum;
+// The covariance for the final linearisation, on the support only, in Joseph form:
+// (I - K H) P0 (I - K H)ᵀ + K R Kᵀ = P0 - W (2I - M) Wᵀ with M = Bᵀ (H P0 Hᵀ + R) B (above),
+// which is I for the exact optimal gain and then gives P0 - W Wᵀ. Roundoff makes the gain
+// inexact (a nearly determined or nearly dependent direction); P0 - W Wᵀ then lost positive
+// semidefiniteness (tests/stress, before issue 8: eigenvalues down to -16 x the prior's
+// trace), while the error of the Joseph form is of second order in the gain's.
+void JosephUpdate(int k, Workspace* ws, Eigen::MatrixXd* covariance) {
+  const int s = static_cast<int>(ws->support.size());
+  Eigen::Map<Eigen::MatrixXd> C = Scratch(&ws->C, k, k);
+  C = 2 * Eigen::MatrixXd::Identity(k, k) - Scratch(&ws->M, k, k);
+  // P0 -= W (2I - M) Wᵀ as rank-one steps: 2I - M = L Lᵀ (it is near I), P0 -= (W L)(W L)ᵀ;
+  // else 2I - M = Q diag(c) Qᵀ, P0 -= Σ_j sign(c_j) v_j v_jᵀ with v_j = W q_j |c_j|^½.
+  Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws->W, s, k), V = Scratch(&ws->V, s, k);
+  Eigen::Map<Eigen::VectorXd> signs = ScratchVector(&ws->signs, k);
+  signs.setOnes();
+  if (k == 1) {
+    signs(0) = C(0, 0) < 0 ? -1 : 1;
+    W *= std::sqrt(std::abs(C(0, 0)));
+  } else if (ws->llt.compute(C).info() == Eigen::Success) {
+    const auto& L = ws->llt.matrixLLT();  // lower triangle
+    for (int j = 0; j < k; ++j) {
+      V.col(j) = W.col(j) * L(j, j);
+      for (int l = j + 1; l < k; ++l) V.col(j) += W.col(l) * L(l, j);
+    }
+    W = V;
+  } else {
+    ws->eigen.compute(C);
+    V.noalias() = W * ws->eigen.eigenvectors();
+    for (int j = 0; j < k; ++j) {
+      const double c = ws->eigen.eigenvalues()(j);
+      signs(j) = c < 0 ? -1 : 1;
+      W.col(j) = V.col(j) * std::sqrt(std::abs(c));
     }
   }
+  SubtractOuterProduct(ws->runs, W, signs.data(), covariance);
 }
 
-// C = Aᵀ B for small dynamic matrices.
-void SmallTransposedProduct(const Eigen::Map<Eigen::MatrixXd>& A,
-                            const Eigen::Map<Eigen::MatrixXd>& B, Eigen::Map<Eigen::MatrixXd>* C) {
-  for (int j = 0; j < B.cols(); ++j) {
-    for (int i = 0; i < A.cols(); ++i) (*C)(i, j) = A.col(i).dot(B.col(j));
-  }
-}
-
-// out = Gᵀ P G (P symmetric), exactly symmetric; `storage` holds P G.
-void QuadraticForm(const Eigen::Map<Eigen::MatrixXd>& G, const Eigen::Map<Eigen::MatrixXd>& P,
-                   std::vector<double>* storage, Eigen::Map<Eigen::MatrixXd>* out) {
-  Eigen::Map<Eigen::MatrixXd> PG =
-      Scratch(storage, static_cast<int>(P.rows()), static_cast<int>(G.cols()));
-  SmallProduct(P, G, &PG);
-  for (int j = 0; j < G.cols(); ++j) {
-    for (int i = 0; i <= j; ++i) {
-      (*out)(i, j) = (*out)(j, i) = 0.5 * (G.col(i).dot(PG.col(j)) + G.col(j).dot(PG.col(i)));
+// Moves the mean and the covariance to the chart at x0 ⊞ δ*.
+void RetractSupport(const Eigen::Map<Eigen::VectorXd>& delta, const Workspace& ws,
+                    GaussianState* state) {
+  int at = 0;
+  for (int b : ws.support_blocks) {
+    const Block& block = state->blocks[b];
+    RetractBlock(block, delta.data() + at, &state->mean);
+    if (block.kind == BlockKind::kPose) {
+      const Eigen::Vector3d w = delta.segment<3>(at);
+      if (!w.isZero()) {
+        ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w), &state->covariance);
+      }
     }
-  }
-}
-
-// With L the lower triangle of `llt` (S = L Lᵀ): A <- A L⁻ᵀ (A is a x m, i.e. the rows of
-// Aᵀ are solved) and z <- L⁻¹ z. Plain loops: m is a few rows, where Eigen's triangular
-// solvers take their blocked matrix path.
-void ForwardSubstitute(const Eigen::MatrixXd& llt, Eigen::Map<Eigen::MatrixXd>* A,
-                       Eigen::Map<Eigen::VectorXd>* z) {
-  const int m = static_cast<int>(llt.rows());
-  for (int i = 0; i < m; ++i) {
-    for (int j = 0; j < i; ++j) {
-      A->col(i) -= llt(i, j) * A->col(j);
-      (*z)(i) -= llt(i, j) * (*z)(j);
-    }
-    A->col(i) /= llt(i, i);
-    (*z)(i) /= llt(i, i);
+    at += TangentDim(block.kind);
   }
 }
 
@@ -219,93 +416,25 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   const std::vector<Block>& blocks = state->blocks;
   thread_local Workspace ws;
 
-  // The tangent coordinates the factor touches (the Jacobian's columns), and its support:
-  // every coordinate of the blocks correlated with them.
-  ws.index.clear();
-  for (int b : factor.blocks) {
-    const Block& block = blocks.at(b);
-    for (int i = 0; i < TangentDim(block.kind); ++i) ws.index.push_back(block.tangent_offset + i);
-  }
+  GatherSupport(factor, *state, &ws);
   const int a = static_cast<int>(ws.index.size());
   CFUSE_CHECK_EQ(a, f.arity());
-  if (state->groups.num_blocks() == static_cast<int>(blocks.size())) {
-    state->groups.Support(factor.blocks, &ws.support_blocks);
-  } else {
-    ws.support_blocks.resize(blocks.size());
-    std::iota(ws.support_blocks.begin(), ws.support_blocks.end(), 0);
-  }
-  // Blocks are usually laid out in id order already (ModelBuilder), so the sort is rare.
-  const auto by_offset = [&](int x, int y) {
-    return blocks[x].tangent_offset < blocks[y].tangent_offset;
-  };
-  if (!std::is_sorted(ws.support_blocks.begin(), ws.support_blocks.end(), by_offset)) {
-    std::sort(ws.support_blocks.begin(), ws.support_blocks.end(), by_offset);
-  }
-  ws.support.clear();
-  ws.runs.clear();
-  for (int b : ws.support_blocks) {
-    const int first = blocks[b].tangent_offset, dim = TangentDim(blocks[b].kind);
-    if (!ws.runs.empty() && ws.runs.back().first + ws.runs.back().size == first) {
-      ws.runs.back().size += dim;
-    } else {
-      ws.runs.push_back({first, static_cast<int>(ws.support.size()), dim});
-    }
-    for (int i = 0; i < dim; ++i) ws.support.push_back(first + i);
-  }
   const std::vector<int>& S = ws.support;
   const int s = static_cast<int>(S.size());
-  ws.position.resize(a);
-  for (int j = 0; j < a; ++j) {
-    ws.position[j] =
-        static_cast<int>(std::lower_bound(S.begin(), S.end(), ws.index[j]) - S.begin());
-    CFUSE_CHECK(ws.position[j] < s && S[ws.position[j]] == ws.index[j]);
-  }
-
-  const Eigen::MatrixXd& P = state->covariance;
-  CFUSE_CHECK_EQ(P.rows(), n);
-  CFUSE_CHECK_EQ(P.cols(), n);
-  Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws.P_sa, s, a);
-  for (int j = 0; j < a; ++j) {
-    for (const Run& run : ws.runs) {
-      P_sa.col(j).segment(run.at, run.size) = P.col(ws.index[j]).segment(run.first, run.size);
-    }
-  }
-  Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws.P_aa, a, a);
-  for (int i = 0; i < a; ++i) P_aa.row(i) = P_sa.row(ws.position[i]);
-  Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws.prior_aa, a);
-  for (int j = 0; j < a; ++j) prior_a(j) = state->prior_variance[ws.index[j]];
-
-  // δ over the support; the iterations start at `linearize_at` if given.
+  CFUSE_CHECK_EQ(state->covariance.rows(), n);
+  CFUSE_CHECK_EQ(state->covariance.cols(), n);
+  GatherPrior(factor, *state, linearize_at, offset, &ws);
+  const Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws.P_sa, s, a), P_aa = Scratch(&ws.P_aa, a, a);
+  const Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws.prior_aa, a);
+  const Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws.mu, s),
+                                    mu_a = ScratchVector(&ws.mu_a, a);
   Eigen::Map<Eigen::VectorXd> delta = ScratchVector(&ws.delta, s);
   Eigen::Map<Eigen::VectorXd> delta_a = ScratchVector(&ws.delta_a, a);
-  // The prior mean of this update in the chart: 0, or the offset carried by the sequence.
-  Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws.mu, s);
-  Eigen::Map<Eigen::VectorXd> mu_a = ScratchVector(&ws.mu_a, a);
-  if (offset) {
-    CFUSE_CHECK_EQ(offset->size(), n);
-    for (int j = 0; j < s; ++j) mu(j) = (*offset)(S[j]);
-  } else {
-    mu.setZero();
-  }
-  for (int j = 0; j < a; ++j) mu_a(j) = mu(ws.position[j]);
-  delta = mu;
-  delta_a = mu_a;
-  if (linearize_at) {
-    int column = 0;
-    for (int b : factor.blocks) {
-      LocalCoordinatesOfBlock(blocks[b], state->mean, *linearize_at, delta_a.data() + column);
-      column += TangentDim(blocks[b].kind);
-    }
-    for (int j = 0; j < a; ++j) delta(ws.position[j]) = delta_a(j);
-  }
 
   Eigen::Map<Eigen::VectorXd> r = ScratchVector(&ws.r, m);
   Eigen::Map<Eigen::MatrixXd> H = Scratch(&ws.H, m, a);
-  Eigen::Map<Eigen::MatrixXd> S_mat = Scratch(&ws.S, m, m), S_init = Scratch(&ws.S_init, m, m);
   Eigen::Map<Eigen::VectorXd> innovation = ScratchVector(&ws.innovation, m);
   Eigen::Map<Eigen::VectorXd> next = ScratchVector(&ws.next, s);
-  Eigen::Map<Eigen::MatrixXd> U = Scratch(&ws.U, m, m);
-  Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws.lambda, m);
   // Each iteration whitens the directions it fuses: with B (m x k) such that Bᵀ (H P0 Hᵀ + R) B
   // is the identity, A = Hᵀ B (a x k), W = P0 A (s x k on the support) and z = Bᵀ innovation
   // (k), the step is δ = W z and the covariance update P0 - W Wᵀ (in Joseph form, below). For
@@ -328,158 +457,24 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       summary.status = FusionSummary::Status::kInvalid;
       return summary;
     }
-    // S = H P0 Hᵀ (+ R) and the innovation H δ - r. These are a few rows by a few columns,
-    // where Eigen's product kernels spend more on dispatch and packing than on arithmetic:
-    // plain loops (as Ceres' small_blas.h does), through scratch storage.
-    Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws.HP, m, a);
+    // The innovation H δ - r; then S = H P0 Hᵀ (+ R) whitened (small_blas.h).
     for (int i = 0; i < m; ++i) innovation(i) = H.row(i).dot(delta_a - mu_a) - r(i);
 
     Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
     Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
     if (!factor.is_constraint()) {
-      SmallProduct(H, P_aa, &HP);
-      SmallProductTransposed(HP, H, &S_mat);
-      S_mat += factor.noise;
-      ws.llt.compute(S_mat);
-      if (ws.llt.info() != Eigen::Success) {
+      if (!WhitenMeasurement(factor.noise, H, P_aa, innovation, &ws)) {
         summary.status = FusionSummary::Status::kInvalid;
         return summary;
       }
       k = m;
-      A = H.transpose();
-      z = innovation;
-      ForwardSubstitute(ws.llt.matrixLLT(), &A, &z);
       if (iteration == 0) summary.rows_fused = m;
-      // M = Aᵀ P0 A + Bᵀ R B with B = L⁻ᵀ, for the Joseph form below (from the A used: its
-      // roundoff is what the Joseph form absorbs).
-      Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, m, m), B = Scratch(&ws.B, m, m);
-      Eigen::Map<Eigen::VectorXd> unused = ScratchVector(&ws.Su, m);
-      B.setIdentity();
-      ForwardSubstitute(ws.llt.matrixLLT(), &B, &unused);
-      Eigen::Map<Eigen::MatrixXd> R = Scratch(&ws.R, m, m), BRB = Scratch(&ws.BRB, m, m);
-      R = factor.noise;
-      QuadraticForm(A, P_aa, &ws.PG, &M);
-      QuadraticForm(B, R, &ws.PG, &BRB);
-      M += BRB;
     } else {
-      // The directions of the residual space, each normalised to unit variance under the
-      // initial prior (tᵀ S_init t = 1), with ρ = tᵀ S t the fraction of it left: a direction
-      // with ρ negligible is already determined. Rows that are (numerically) combinations of
-      // others have no direction of their own: found on the rows scaled to unit prior variance,
-      // where every eigenvalue is relative to 1. Without that test their direction had roundoff
-      // for both variances and, when the ratio passed the tolerance, was fused with a garbage
-      // gain that broke the covariance's positive semidefiniteness (tests/stress).
-      HP.noalias() = H * prior_a.asDiagonal();
-      SmallProductTransposed(HP, H, &S_init);
-      Eigen::Map<Eigen::VectorXd> d = ScratchVector(&ws.Su, m);
-      for (int i = 0; i < m; ++i) d(i) = S_init(i, i) > 0 ? 1 / std::sqrt(S_init(i, i)) : 0.0;
-      for (int j = 0; j < m; ++j) {
-        for (int i = 0; i < m; ++i) S_init(i, j) *= d(i) * d(j);
-      }
-      // T (m x rank): the directions, or (below) a basis of them.
-      Eigen::Map<Eigen::MatrixXd> T = Scratch(&ws.T, m, m);
-      int rank = 0;
-      double contradiction = 0;
-      if (m == 1) {
-        T(0, 0) = d(0);
-        rank = d(0) > 0 ? 1 : 0;
-      } else {
-        ws.eigen.compute(S_init);
-        for (int i = 0; i < m; ++i) {
-          const double mu = ws.eigen.eigenvalues()(i);
-          if (mu > kRankTolerance * m) {
-            T.col(rank++) = d.cwiseProduct(ws.eigen.eigenvectors().col(i)) / std::sqrt(mu);
-          } else if (iteration == 0) {
-            // Consistent only if the rows' innovations are the same combination (measured in
-            // the rows' prior deviations).
-            contradiction =
-                std::max(contradiction,
-                         std::abs(d.cwiseProduct(ws.eigen.eigenvectors().col(i)).dot(innovation)));
-          }
-        }
-      }
-      // The variances on T, Tᵀ S T, as Gᵀ P0 G with G = Hᵀ T: forming S = H P0 Hᵀ first loses
-      // them to cancellation where rows are nearly dependent (T then large).
-      Eigen::Map<Eigen::MatrixXd> Tr = Scratch(&ws.T, m, rank), G = Scratch(&ws.G, a, rank);
-      Eigen::Map<Eigen::MatrixXd> Sr = Scratch(&ws.C, rank, rank);
-      if (m > 1 && rank == m && ws.eigen.eigenvalues()(0) > kWellConditioned) {
-        // Rows far from dependent: the eigenvectors u of S, accurate there (the directions of
-        // the filter before issue 8, with which the interpretation tree was tuned).
-        SmallProduct(H, P_aa, &HP);
-        SmallProductTransposed(HP, H, &S_mat);
-        ws.eigen.compute(S_mat);
-        Eigen::Map<Eigen::VectorXd> v = ScratchVector(&ws.v, m), Sv = ScratchVector(&ws.Sv, m);
-        for (int j = 0; j < m; ++j) {
-          v = ws.eigen.eigenvectors().col(j).cwiseQuotient(d);  // uᵀ S_init u = vᵀ (scaled) v
-          Sv.noalias() = S_init * v;
-          Tr.col(j) = ws.eigen.eigenvectors().col(j) / std::sqrt(v.dot(Sv));
-        }
-        SmallTransposedProduct(H, Tr, &G);
-        QuadraticForm(G, P_aa, &ws.PG, &Sr);
-        U.topLeftCorner(m, m).setIdentity();
-        lambda.head(m) = Sr.diagonal();
-      } else {
-        // Else the generalised eigenvectors of (S, S_init) on the rows' range.
-        SmallTransposedProduct(H, Tr, &G);
-        QuadraticForm(G, P_aa, &ws.PG, &Sr);
-        if (rank == 1) {
-          U(0, 0) = 1;
-          lambda(0) = Sr(0, 0);
-        } else if (rank > 1) {
-          ws.eigen.compute(Sr);
-          U.topLeftCorner(rank, rank) = ws.eigen.eigenvectors();
-          lambda.head(rank) = ws.eigen.eigenvalues();
-        }
-      }
-      // The innovation on T, for the contradiction test.
-      Eigen::Map<Eigen::VectorXd> Ti = ScratchVector(&ws.Ti, rank);
-      for (int j = 0; j < rank; ++j) Ti(j) = Tr.col(j).dot(innovation);
-      ws.keep.clear();
-      for (int i = 0; i < rank; ++i) {
-        if (lambda(i) <= options.degeneracy_tolerance) {
-          // Already determined: the linearised factor is consistent only if its innovation
-          // has no component along t (the state cannot move along Hᵀt).
-          if (iteration == 0) {
-            contradiction = std::max(contradiction, std::abs(U.col(i).head(rank).dot(Ti)));
-          }
-          continue;
-        }
-        ws.keep.push_back(i);
-      }
-      if (iteration == 0) {
-        summary.contradiction = contradiction;
-        if (contradiction > options.contradiction_tolerance) {
-          summary.status = FusionSummary::Status::kContradiction;
-          return summary;
-        }
-        if (ws.keep.empty()) {
-          summary.status = FusionSummary::Status::kRedundant;
-          return summary;
-        }
-        summary.rows_fused = static_cast<int>(ws.keep.size());
-      }
-      // Later iterations keep the directions of the first (a direction's status cannot change
-      // between them without a contradiction, which the first iteration refused).
-      // Nothing left to fuse at the final iterate: the previous linearisation's covariance
-      // update stands (its A and W are still in place).
-      if (finishing && ws.keep.empty()) break;
-      k = static_cast<int>(ws.keep.size());
-      Eigen::Map<Eigen::MatrixXd> B = Scratch(&ws.B, m, k);
-      for (int j = 0; j < k; ++j) {
-        const double scale = 1 / std::sqrt(lambda(ws.keep[j]));
-        B.col(j).setZero();
-        A.col(j).setZero();
-        for (int l = 0; l < rank; ++l) {
-          const double q = U(l, ws.keep[j]) * scale;
-          B.col(j) += q * Tr.col(l);
-          A.col(j) += q * G.col(l);
-        }
-        z(j) = B.col(j).dot(innovation);
-      }
-      // M = Aᵀ P0 A, for the Joseph form below: from the A used, as roundoff in it is what the
-      // Joseph form absorbs.
-      Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws.M, k, k);
-      QuadraticForm(Scratch(&ws.A, a, k), P_aa, &ws.PG, &M);
+      const int kept =
+          WhitenConstraint(H, P_aa, prior_a, innovation, iteration == 0, options, &ws, &summary);
+      if (kept < 0) return summary;
+      if (finishing && kept == 0) break;
+      k = kept;
     }
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
     if (k == 1) {
@@ -516,60 +511,12 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     }
   }
 
-  // The covariance for the final linearisation, on the support only, in Joseph form:
-  // (I - K H) P0 (I - K H)ᵀ + K R Kᵀ = P0 - W (2I - M) Wᵀ with M = Bᵀ (H P0 Hᵀ + R) B (above),
-  // which is I for the exact optimal gain and then gives P0 - W Wᵀ. Roundoff makes the gain
-  // inexact (a nearly determined or nearly dependent direction); P0 - W Wᵀ then lost positive
-  // semidefiniteness (tests/stress, before issue 8: eigenvalues down to -16 x the prior's
-  // trace), while the error of the Joseph form is of second order in the gain's.
-  if (k > 0) {
-    Eigen::Map<Eigen::MatrixXd> C = Scratch(&ws.C, k, k);
-    C = 2 * Eigen::MatrixXd::Identity(k, k) - Scratch(&ws.M, k, k);
-    // P0 -= W (2I - M) Wᵀ as rank-one steps: 2I - M = L Lᵀ (it is near I), P0 -= (W L)(W L)ᵀ;
-    // else 2I - M = Q diag(c) Qᵀ, P0 -= Σ_j sign(c_j) v_j v_jᵀ with v_j = W q_j |c_j|^½.
-    Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k), V = Scratch(&ws.V, s, k);
-    Eigen::Map<Eigen::VectorXd> signs = ScratchVector(&ws.signs, k);
-    signs.setOnes();
-    if (k == 1) {
-      signs(0) = C(0, 0) < 0 ? -1 : 1;
-      W *= std::sqrt(std::abs(C(0, 0)));
-    } else if (ws.llt.compute(C).info() == Eigen::Success) {
-      const auto& L = ws.llt.matrixLLT();  // lower triangle
-      for (int j = 0; j < k; ++j) {
-        V.col(j) = W.col(j) * L(j, j);
-        for (int l = j + 1; l < k; ++l) V.col(j) += W.col(l) * L(l, j);
-      }
-      W = V;
-    } else {
-      ws.eigen.compute(C);
-      V.noalias() = W * ws.eigen.eigenvectors();
-      for (int j = 0; j < k; ++j) {
-        const double c = ws.eigen.eigenvalues()(j);
-        signs(j) = c < 0 ? -1 : 1;
-        W.col(j) = V.col(j) * std::sqrt(std::abs(c));
-      }
-    }
-    SubtractOuterProduct(ws.runs, W, signs.data(), &state->covariance);
-  }
-
+  if (k > 0) JosephUpdate(k, &ws, &state->covariance);
   if (offset) {
     // The sequence carries the estimate in the chart; RetractOffset() moves it at the end.
     for (int j = 0; j < s; ++j) (*offset)(S[j]) = delta(j);
   } else {
-    // Move the mean and the covariance to the chart at x0 ⊞ δ*.
-    int at = 0;
-    for (int b : ws.support_blocks) {
-      const Block& block = blocks[b];
-      RetractBlock(block, delta.data() + at, &state->mean);
-      if (block.kind == BlockKind::kPose) {
-        const Eigen::Vector3d w = delta.segment<3>(at);
-        if (!w.isZero()) {
-          ResetRotationBlock(ws.runs, block.tangent_offset, RightJacobianSO3(w),
-                             &state->covariance);
-        }
-      }
-      at += TangentDim(block.kind);
-    }
+    RetractSupport(delta, ws, state);
   }
   if (state->groups.num_blocks() == static_cast<int>(blocks.size())) {
     state->groups.Merge(factor.blocks);

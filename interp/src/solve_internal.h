@@ -1,0 +1,43 @@
+// The steps of Solve() that live in more than one file: the labelled solve itself (solve.cpp),
+// its starts and the answer's neighbours from one image (solve_starts.cpp). Internal to interp:
+// not installed.
+#pragma once
+
+#include <vector>
+
+#include "cfuse/interp/solve.h"
+
+namespace cfuse::internal {
+
+// Unmeasured single points start where the rigid guess puts them, which is off by however far
+// the articulation moved them, and a constraint linearised there can throw the sequential
+// pass far along a direction it leaves free. So each is first placed where its constraints to
+// known points (measured, or placed before it) hold best, most constrained first.
+void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured, Values* x);
+
+// rᵀ R⁻¹ r of a labelled measurement at `values` (R its noise), or infinity when r is not
+// finite.
+double NormalisedSquare(const ConstraintGraph& graph, const MeasurementSet& set,
+                        const ResolvedLabel& r, const Values& values);
+
+// Steps 2-4 for the measurements of `labels`: solution's state, summary, contradictions and
+// invalid factors. An image measurement whose point is at or behind the camera at the start is
+// not fused, and reported in `invalid`.
+void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
+                   const SolveOptions& options, const std::vector<ResolvedLabel>& labels,
+                   Solution* solution, const Values* start = nullptr);
+
+// From image measurements a solve can end in one of several minima (a near-planar part or the
+// whole object mirrored about the line of sight, a point on the far side of its anchors). The
+// other closed-form start (the nominal geometry moved as one body) and the mirror images of
+// both starts, whole and part by part, are solved too. Then, from the best minimum so far, each
+// of its discrete neighbours (Flips) is solved, and the best of them taken while it fits
+// better: the lamp's minima differ by one point or one arm at a time, and the answer's mirror
+// images alone left 3 of 50 answers on a worse minimum than the truth's, none said. The best fit
+// becomes the solution and the other distinct minima that the fit test does not reject its
+// alternatives.
+void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
+                   const SolveOptions& options, const std::vector<ResolvedLabel>& used,
+                   Solution* solution);
+
+}  // namespace cfuse::internal
