@@ -91,7 +91,7 @@ void BM_FuseChain(benchmark::State& state) {
     const ExprPtr d = MakeCall(Function::kDistance, {P(i), P(i + 1)}, &why);
     const double nominal = (b.graph().nominal.points[i] - b.graph().nominal.points[i + 1]).norm();
     b.AddConstraint(
-        "d" + std::to_string(i), "distance",
+        "d" + std::to_string(i), ConstraintKind::kDistanceEquality, "distance ==",
         EqualityResidual::Create(d, MakeConstant(nominal, Quantity::Length()), b.Context()), {});
   }
   const ConstraintGraph g = std::move(b).Build();

@@ -21,7 +21,7 @@ ModelSummary Summarize(const ConstraintGraph& graph) {
   }
   for (const Block& b : graph.blocks) s.slacks += b.kind == BlockKind::kSlack ? 1 : 0;
   for (const Constraint& c : graph.constraints) {
-    s.constraints_by_kind[c.kind] += 1;
+    s.constraints_by_kind[c.kind_name] += 1;
     Eigen::VectorXd r;
     EvaluateResidual(*c.residual, graph.blocks, c.blocks, graph.nominal, &r, nullptr);
     const double worst = r.size() ? r.cwiseAbs().maxCoeff() : 0.0;

@@ -8,7 +8,6 @@
 #include <set>
 
 #include "cfuse/constraints/evaluate.h"
-#include "cfuse/constraints/kinds/fix_pose.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/kernel/batch_solver.h"
 #include "cfuse/kernel/did_you_mean.h"
@@ -111,12 +110,11 @@ Values ForwardKinematics(const ConstraintGraph& graph,
   };
   // Roots at a fixed pose where the model gives one.
   for (const Constraint& k : graph.constraints) {
-    const auto* fix = dynamic_cast<const FixPoseResidual*>(k.residual.get());
-    if (!fix || !fix->fixes_position() || !fix->fixes_orientation()) continue;
+    if (!k.fixed_pose) continue;
     for (int c = 0; c < n; ++c) {
       if (graph.components[c].rigid && graph.components[c].block == k.blocks[0] &&
           parent_joint[c] < 0) {
-        pose(c) = fix->target();
+        pose(c) = *k.fixed_pose;
       }
     }
   }

@@ -2,6 +2,8 @@
 
 #include <array>
 
+#include "cfuse/constraints/joint_model.h"
+
 namespace cfuse {
 namespace {
 constexpr std::array<std::pair<JointType, const char*>, 7> kJointTypes = {{
@@ -41,21 +43,10 @@ std::optional<JointType> ParseJointType(std::string_view name) {
 }
 
 Rigid3d JointMotion(JointType type, const Eigen::Vector3d& axis, double q) {
-  switch (type) {
-    case JointType::kRevolute:
-    case JointType::kContinuous:
-      return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
-    case JointType::kPrismatic:
-      return Rigid3d(Eigen::Quaterniond::Identity(), axis * q);
-    default:
-      return Rigid3d();
-  }
+  return ModelOf(type).Motion(axis, q);
 }
 
-bool HasJointVariable(JointType type) {
-  return type == JointType::kRevolute || type == JointType::kContinuous ||
-         type == JointType::kPrismatic;
-}
+bool HasJointVariable(JointType type) { return ModelOf(type).HasVariable(); }
 
 int ConstraintGraph::tangent_dim() const {
   int n = 0;

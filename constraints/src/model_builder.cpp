@@ -108,7 +108,8 @@ void ModelBuilder::IndexComponent(int component) {
   if (!c.alias.empty()) component_index_[c.alias] = component;
   for (size_t f = 0; f < c.frames.size(); ++f) {
     frame_index_[c.frames[f].name] = {component, static_cast<int>(f)};
-    if (!c.frames[f].alias.empty()) frame_index_[c.frames[f].alias] = {component, static_cast<int>(f)};
+    if (!c.frames[f].alias.empty())
+      frame_index_[c.frames[f].alias] = {component, static_cast<int>(f)};
   }
   if (!c.rigid) bare_points_[c.name].emplace_back(component, -1);
   for (size_t i = 0; i < c.points.size(); ++i) {
@@ -390,7 +391,8 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
   const JointGeometry geometry(joint.parent_from_joint, joint.child_from_joint, joint.axis);
   if (spec.type != JointType::kFloating) {
     ConstraintParts parts{MakeJointResidual(spec.type, geometry), {parent.block, child.block}, -1};
-    joint.constraint = AddConstraint(spec.name, fmt::format("{} joint", JointTypeName(spec.type)),
+    joint.constraint = AddConstraint(spec.name, ConstraintKind::kJoint,
+                                     fmt::format("{} joint", JointTypeName(spec.type)),
                                      std::move(parts), spec.where);
   }
   const bool prismatic = spec.type == JointType::kPrismatic;
@@ -405,7 +407,8 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
     ConstraintParts limit{std::make_shared<JointLimitResidual>(geometry, prismatic, lo, hi),
                           {parent.block, child.block, slack},
                           slack};
-    joint.limit_constraint = AddConstraint(name, "joint limit", std::move(limit), spec.where);
+    joint.limit_constraint = AddConstraint(name, ConstraintKind::kJointLimit, "joint limit",
+                                           std::move(limit), spec.where);
   }
   joint_index_[joint.name] = static_cast<int>(graph_.joints.size());
   graph_.joints.push_back(std::move(joint));
@@ -474,7 +477,8 @@ void ModelBuilder::AddMimic(int follower, int leader, double multiplier, double 
       std::make_shared<MimicResidual>(std::move(fs), std::move(ls), slots, multiplier, offset),
       blocks, -1};
   const std::string name = UniqueConstraintName(f.name + "_mimic");
-  const int constraint = AddConstraint(name, "mimic joint", std::move(parts), where);
+  const int constraint =
+      AddConstraint(name, ConstraintKind::kMimicJoint, "mimic joint", std::move(parts), where);
   graph_.joints[follower].mimic = JointMimic{leader, multiplier, offset, constraint};
 }
 
@@ -496,13 +500,15 @@ std::string ModelBuilder::UniqueConstraintName(const std::string& preferred) con
   }
 }
 
-int ModelBuilder::AddConstraint(const std::string& name, const std::string& kind,
-                                ConstraintParts parts, const SourceLocation& where) {
+int ModelBuilder::AddConstraint(const std::string& name, ConstraintKind kind,
+                                const std::string& kind_name, ConstraintParts parts,
+                                const SourceLocation& where) {
   RequireUniqueConstraint(name, where);
   CFUSE_CHECK(parts.residual != nullptr);
   Constraint c;
   c.name = name;
   c.kind = kind;
+  c.kind_name = kind_name;
   c.residual = std::move(parts.residual);
   c.blocks = std::move(parts.blocks);
   c.slack_block = parts.slack_block;
@@ -530,7 +536,10 @@ int ModelBuilder::FixComponent(int component, bool position, bool orientation,
   const std::string name = UniqueConstraintName(fmt::format("fixed_{}", c.name));
   ConstraintParts parts{
       std::make_shared<FixPoseResidual>(target, position, orientation), {c.block}, -1};
-  return AddConstraint(name, fmt::format("fixed {}", what), std::move(parts), where);
+  const int k = AddConstraint(name, ConstraintKind::kFixed, fmt::format("fixed {}", what),
+                              std::move(parts), where);
+  if (position && orientation) graph_.constraints[k].fixed_pose = target;
+  return k;
 }
 
 KindContext ModelBuilder::Context(int slack_block) const {

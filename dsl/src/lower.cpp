@@ -256,9 +256,8 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
       std::vector<std::string> names;
       for (const RelationKind& r : AllRelations()) names.push_back(r.name);
       Fail(call.span,
-           fmt::format("unknown relation '{}'{}; the relations are parallel, "
-                       "perpendicular, coplanar, collinear, rigid, or use ==, <=, >=, in",
-                       call.name, DidYouMean(call.name, names)));
+           fmt::format("unknown relation '{}'{}; the relations are {}, or use ==, <=, >=, in",
+                       call.name, DidYouMean(call.name, names), RelationNames()));
     }
     const int n = static_cast<int>(call.args.size());
     if (n < kind->min_args || (kind->max_args >= 0 && n > kind->max_args)) {
@@ -276,8 +275,8 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
       }
     }
     try {
-      builder->AddConstraint(name, kind->name, kind->create(std::move(args), builder->Context()),
-                             where);
+      builder->AddConstraint(name, kind->kind, kind->name,
+                             kind->create(std::move(args), builder->Context()), where);
     } catch (const KindError& e) {
       kind_error(e);
     }
@@ -291,6 +290,11 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
   const ExprPtr nominal = NominalOf(lhs, g);
   std::string kind_prefix = "expression";
   if (ast.lhs->kind == AstNode::Kind::kCall) kind_prefix = ast.lhs->name;
+  const FunctionInfo* lhs_function =
+      ast.lhs->kind == AstNode::Kind::kCall ? FindFunction(ast.lhs->name) : nullptr;
+  const ConstraintKind equality_kind = lhs_function && lhs_function->id == Function::kDistance
+                                           ? ConstraintKind::kDistanceEquality
+                                           : ConstraintKind::kExpression;
 
   auto require_same_type = [&](const ExprPtr& r, const AstNode& node, const char* what) {
     const Span& span = node.span;
@@ -322,7 +326,7 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
         ExprPtr rhs = Lower(*ast.rhs, nominal);
         UnifyZero(&rhs, lhs);
         require_same_type(rhs, *ast.rhs, "the right-hand side");
-        builder->AddConstraint(name, kind_prefix + " ==",
+        builder->AddConstraint(name, equality_kind, kind_prefix + " ==",
                                EqualityResidual::Create(lhs, rhs, builder->Context()), where);
         return;
       }
@@ -339,8 +343,8 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
         ConstraintParts parts =
             InequalityResidual::Create(lhs, rhs, greater, builder->Context(slack), &slack0);
         builder->SetSlackNominal(slack, slack0);
-        builder->AddConstraint(name, kind_prefix + (greater ? " >=" : " <="), std::move(parts),
-                               where);
+        builder->AddConstraint(name, ConstraintKind::kExpression,
+                               kind_prefix + (greater ? " >=" : " <="), std::move(parts), where);
         return;
       }
       case AstConstraint::Relation::kIn: {
@@ -363,7 +367,8 @@ void Lowerer::AddConstraint(ModelBuilder* builder, std::string_view text,
         ConstraintParts parts = RangeResidual::Create(lhs, lo->constant.x(), hi->constant.x(),
                                                       builder->Context(slack), &slack0);
         builder->SetSlackNominal(slack, slack0);
-        builder->AddConstraint(name, kind_prefix + " in", std::move(parts), where);
+        builder->AddConstraint(name, ConstraintKind::kExpression, kind_prefix + " in",
+                               std::move(parts), where);
         return;
       }
       case AstConstraint::Relation::kCall:

@@ -506,7 +506,8 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
       } else {
         const Eigen::Vector3d p =
             builder_->graph().nominal.points[builder_->graph().blocks[comp.block].index];
-        builder_->AddConstraint(builder_->UniqueConstraintName("fixed_" + comp.name), "fixed point",
+        builder_->AddConstraint(builder_->UniqueConstraintName("fixed_" + comp.name),
+                                ConstraintKind::kFixed, "fixed point",
                                 EqualityResidual::Create(MakePointRef(comp.block),
                                                          MakeVectorConstant(p, Quantity::Length()),
                                                          builder_->Context()),
@@ -547,7 +548,7 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
       builder_->AddConstraint(
           builder_->UniqueConstraintName("fixed_" + std::string(ast->name) +
                                          (ast->member.empty() ? "" : "_" + ast->member)),
-          "fixed point",
+          ConstraintKind::kFixed, "fixed point",
           EqualityResidual::Create(p, MakeVectorConstant(target, Quantity::Length()),
                                    builder_->Context()),
           doc.Loc(item));

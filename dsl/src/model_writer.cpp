@@ -43,7 +43,7 @@ std::string WriteModel(const ConstraintGraph& graph) {
       throw InputError(c.where.known() ? c.where : SourceLocation(graph.source),
                        fmt::format("cannot write constraint '{}' ({}) as a model file: only "
                                    "joints are written",
-                                   c.name, c.kind));
+                                   c.name, c.kind_name));
     }
   }
   std::string out;

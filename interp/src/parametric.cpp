@@ -8,7 +8,7 @@
 #include <cmath>
 #include <limits>
 
-#include "cfuse/constraints/kinds/fix_pose.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/chi_square.h"
@@ -23,12 +23,6 @@ constexpr double kInf = std::numeric_limits<double>::infinity();
 Eigen::Vector3d LogSO3(const Eigen::Matrix3d& R) {
   const Eigen::AngleAxisd aa(R);
   return aa.angle() * aa.axis();
-}
-
-// A root pose held by a `fixed:` entry (both position and orientation), or null.
-const FixPoseResidual* FullFix(const Constraint& c) {
-  const auto* fix = dynamic_cast<const FixPoseResidual*>(c.residual.get());
-  return fix && fix->fixes_position() && fix->fixes_orientation() ? fix : nullptr;
 }
 
 // The kinematic forest of a model and where each parameter sits.
@@ -56,23 +50,6 @@ struct Influence {
   double multiplier;
   int twist;
 };
-
-int ParameterCount(JointType type) {
-  switch (type) {
-    case JointType::kRevolute:
-    case JointType::kContinuous:
-    case JointType::kPrismatic:
-      return 1;
-    case JointType::kSpherical:
-    case JointType::kPlanar:
-      return 3;
-    case JointType::kFloating:
-      return 6;
-    case JointType::kFixed:
-      return 0;
-  }
-  return 0;
-}
 
 std::string Unsupported(const ConstraintGraph& g, Forest* forest) {
   Forest f;
@@ -108,7 +85,8 @@ std::string Unsupported(const ConstraintGraph& g, Forest* forest) {
   for (size_t k = 0; k < g.constraints.size(); ++k) {
     if (accounted[k]) continue;
     const Constraint& c = g.constraints[k];
-    const FixPoseResidual* fix = FullFix(c);
+    // A root pose held by a `fixed:` entry (both position and orientation).
+    const std::optional<Rigid3d>& fix = c.fixed_pose;
     int component = -1;
     for (int i = 0; i < nc; ++i) {
       if (fix && g.components[i].block == c.blocks[0]) component = i;
@@ -117,9 +95,9 @@ std::string Unsupported(const ConstraintGraph& g, Forest* forest) {
       return fmt::format(
           "constraint '{}' ({}) is not a joint, a joint limit, a mimic or a fixed "
           "root pose: the parametric form cannot hold it",
-          c.name, c.kind);
+          c.name, c.kind_name);
     }
-    f.fixed[component] = &fix->target();
+    f.fixed[component] = &*fix;
   }
   // Joints from the roots down (breadth first); a cycle leaves some unreached.
   std::vector<std::vector<int>> children(nc);
@@ -185,31 +163,13 @@ void Layout(const ConstraintGraph& g, const ParametricOptions& options, double e
   for (int j : f->order) {
     const Joint& joint = g.joints[j];
     if (joint.mimic) continue;
-    const int count = ParameterCount(joint.type);
+    const JointModel& model = ModelOf(joint.type);
+    const int count = model.ParameterCount();
     if (count == 0) continue;
     f->joint_parameter[j] = f->size;
-    switch (joint.type) {
-      case JointType::kRevolute:
-      case JointType::kContinuous:
-        add(joint.name, rotation_sigma);
-        break;
-      case JointType::kPrismatic:
-        add(joint.name, position_sigma);
-        break;
-      case JointType::kSpherical:
-        for (const char* axis : {"rx", "ry", "rz"}) add(joint.name + "." + axis, rotation_sigma);
-        break;
-      case JointType::kPlanar:
-        add(joint.name + ".angle", rotation_sigma);
-        add(joint.name + ".u", position_sigma);
-        add(joint.name + ".v", position_sigma);
-        break;
-      case JointType::kFloating:
-        for (const char* axis : {"rx", "ry", "rz"}) add(joint.name + "." + axis, rotation_sigma);
-        for (const char* axis : {"tx", "ty", "tz"}) add(joint.name + "." + axis, position_sigma);
-        break;
-      case JointType::kFixed:
-        break;
+    for (const JointModel::Parameter& parameter : model.Parameters()) {
+      add(*parameter.suffix ? joint.name + "." + parameter.suffix : joint.name,
+          parameter.angle ? rotation_sigma : position_sigma);
     }
   }
   f->twists = f->size;
@@ -250,7 +210,7 @@ Rigid3d Motion(const Joint& joint, const Forest& f, const Configuration& x, int 
     const double q = f.multiplier[j] * x.q[f.leader[j]] + f.offset[j];
     return JointMotion(joint.type, joint.axis, q);
   }
-  if (joint.type == JointType::kFixed) return Rigid3d();
+  if (ModelOf(joint.type).ParameterCount() == 0) return Rigid3d();
   return x.motion[j];
 }
 
@@ -294,35 +254,7 @@ Eigen::MatrixXd Twists(const ConstraintGraph& g, const Forest& f, const Placemen
     const int k = f.mimic_twist[j] >= 0 ? f.mimic_twist[j] : f.joint_parameter[j];
     if (k < 0) continue;
     const Joint& joint = g.joints[j];
-    const Eigen::Matrix3d RA = p.A[j].RotationMatrix(), RB = p.B[j].RotationMatrix();
-    switch (joint.type) {
-      case JointType::kRevolute:
-      case JointType::kContinuous:
-        rotation_about(k, RA * joint.axis, p.A[j].translation);
-        break;
-      case JointType::kPrismatic:
-        T.col(k).tail<3>() = RA * joint.axis;
-        break;
-      case JointType::kSpherical:
-        for (int i = 0; i < 3; ++i) rotation_about(k + i, RB.col(i), p.B[j].translation);
-        break;
-      case JointType::kPlanar: {
-        Eigen::Vector3d e1, e2;
-        OrthonormalComplement<double>(joint.axis, &e1, &e2);
-        rotation_about(k, RA * joint.axis, p.B[j].translation);
-        T.col(k + 1).tail<3>() = RA * e1;
-        T.col(k + 2).tail<3>() = RA * e2;
-        break;
-      }
-      case JointType::kFloating:
-        for (int i = 0; i < 3; ++i) {
-          rotation_about(k + i, RB.col(i), p.B[j].translation);
-          T.col(k + 3 + i).tail<3>() = RA.col(i);
-        }
-        break;
-      case JointType::kFixed:
-        break;
-    }
+    ModelOf(joint.type).Twists(joint.axis, p.A[j], p.B[j], &T, k);
   }
   return T;
 }
@@ -338,7 +270,7 @@ std::vector<std::vector<Influence>> Influences(const ConstraintGraph& g, const F
       const int leader = f.leader[j];
       const int k = f.joint_parameter[leader];
       if (k >= 0 && f.multiplier[j] != 0) {
-        for (int i = 0; i < ParameterCount(g.joints[leader].type); ++i) {
+        for (int i = 0; i < ModelOf(g.joints[leader].type).ParameterCount(); ++i) {
           out[c].push_back(
               {k + i, f.multiplier[j], f.mimic_twist[j] >= 0 ? f.mimic_twist[j] : k + i});
         }
@@ -369,33 +301,7 @@ void Retract(const ConstraintGraph& g, const Forest& f, const Eigen::VectorXd& d
     const int k = f.joint_parameter[j];
     if (k < 0) continue;
     const Joint& joint = g.joints[j];
-    Rigid3d& m = x->motion[j];
-    switch (joint.type) {
-      case JointType::kRevolute:
-      case JointType::kContinuous:
-      case JointType::kPrismatic:
-        x->q[j] += d[k];
-        break;
-      case JointType::kSpherical:
-        m.rotation =
-            (m.rotation * Eigen::Quaterniond(ExpSO3<double>(d.segment<3>(k)))).normalized();
-        break;
-      case JointType::kPlanar: {
-        Eigen::Vector3d e1, e2;
-        OrthonormalComplement<double>(joint.axis, &e1, &e2);
-        m.rotation =
-            (m.rotation * Eigen::Quaterniond(Eigen::AngleAxisd(d[k], joint.axis))).normalized();
-        m.translation += d[k + 1] * e1 + d[k + 2] * e2;
-        break;
-      }
-      case JointType::kFloating:
-        m.rotation =
-            (m.rotation * Eigen::Quaterniond(ExpSO3<double>(d.segment<3>(k)))).normalized();
-        m.translation += d.segment<3>(k + 3);
-        break;
-      case JointType::kFixed:
-        break;
-    }
+    ModelOf(joint.type).Retract(joint.axis, d.data() + k, &x->q[j], &x->motion[j]);
   }
 }
 
@@ -414,32 +320,8 @@ Eigen::VectorXd Difference(const ConstraintGraph& g, const Forest& f, const Conf
     const int k = f.joint_parameter[j];
     if (k < 0) continue;
     const Joint& joint = g.joints[j];
-    const Rigid3d &a = from.motion[j], &b = to.motion[j];
-    const Eigen::Vector3d w = LogSO3((a.rotation.conjugate() * b.rotation).toRotationMatrix());
-    switch (joint.type) {
-      case JointType::kRevolute:
-      case JointType::kContinuous:
-      case JointType::kPrismatic:
-        d[k] = to.q[j] - from.q[j];
-        break;
-      case JointType::kSpherical:
-        d.segment<3>(k) = w;
-        break;
-      case JointType::kPlanar: {
-        Eigen::Vector3d e1, e2;
-        OrthonormalComplement<double>(joint.axis, &e1, &e2);
-        d[k] = joint.axis.dot(w);
-        d[k + 1] = e1.dot(b.translation - a.translation);
-        d[k + 2] = e2.dot(b.translation - a.translation);
-        break;
-      }
-      case JointType::kFloating:
-        d.segment<3>(k) = w;
-        d.segment<3>(k + 3) = b.translation - a.translation;
-        break;
-      case JointType::kFixed:
-        break;
-    }
+    ModelOf(joint.type)
+        .Difference(joint.axis, from.q[j], to.q[j], from.motion[j], to.motion[j], d.data() + k);
   }
   return d;
 }
@@ -463,24 +345,14 @@ Configuration FromPoses(const ConstraintGraph& g, const Forest& f, const Values&
     if (HasJointVariable(joint.type)) {
       const JointValueFunction value(
           JointGeometry(joint.parent_from_joint, joint.child_from_joint, joint.axis),
-          joint.type == JointType::kPrismatic, JointValueFunction::BranchCentre(joint));
+          !ModelOf(joint.type).Parameters()[0].angle, JointValueFunction::BranchCentre(joint));
       const std::vector<int> blocks = {g.components[joint.parent].block,
                                        g.components[joint.child].block};
       double q = 0;
       EvaluateResidualAt(value, g.blocks, blocks, start, nullptr, &q, nullptr);
       x.q[j] = std::isfinite(q) ? q : 0.0;
-    } else if (joint.type == JointType::kSpherical) {
-      x.motion[j] = Rigid3d(M.rotation, Eigen::Vector3d::Zero());
-    } else if (joint.type == JointType::kPlanar) {
-      // The rotation's angle about the axis, the translation's part normal to it.
-      Eigen::Vector3d e1, e2;
-      OrthonormalComplement<double>(joint.axis, &e1, &e2);
-      const Eigen::Vector3d r1 = M.rotation * e1;
-      const double angle = std::atan2(e2.dot(r1), e1.dot(r1));
-      x.motion[j] = Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(angle, joint.axis)),
-                            M.translation - joint.axis * joint.axis.dot(M.translation));
-    } else if (joint.type == JointType::kFloating) {
-      x.motion[j] = M;
+    } else {
+      x.motion[j] = ModelOf(joint.type).Nearest(joint.axis, M);
     }
   }
   for (int j : f.order) {

@@ -80,8 +80,8 @@ std::vector<std::array<int, 3>> RigidTriangles(const ConstraintGraph& g,
     const Constraint& c = g.constraints[k];
     if (use && !(*use)[k]) continue;
     const std::vector<int> comps = ConstraintComponents(g, c);
-    const bool distance = c.kind == "distance ==" && comps.size() == 2;
-    if (!distance && c.kind != "rigid") continue;
+    const bool distance = c.kind == ConstraintKind::kDistanceEquality && comps.size() == 2;
+    if (!distance && c.kind != ConstraintKind::kRigid) continue;
     for (int a : comps) {
       for (int b : comps) {
         if (a != b && !g.components[a].rigid && !g.components[b].rigid) rigid_with[a].insert(b);
@@ -94,8 +94,8 @@ std::vector<std::array<int, 3>> RigidTriangles(const ConstraintGraph& g,
   bool other_kinds = false;
   for (size_t k = 0; k < g.constraints.size(); ++k) {
     const Constraint& c = g.constraints[k];
-    if ((use && !(*use)[k]) || c.slack_block >= 0 || c.kind == "rigid") continue;
-    if (c.kind == "distance ==") continue;
+    if ((use && !(*use)[k]) || c.slack_block >= 0 || c.kind == ConstraintKind::kRigid) continue;
+    if (c.kind == ConstraintKind::kDistanceEquality) continue;
     const std::vector<int> comps = ConstraintComponents(g, c);
     other_kinds = other_kinds || std::any_of(comps.begin(), comps.end(),
                                              [&](int a) { return !g.components[a].rigid; });

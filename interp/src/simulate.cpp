@@ -68,9 +68,8 @@ Values Configuration(const ConstraintGraph& g, const SimulateOptions& options, s
     constraints.push_back({c.residual, c.blocks, {}, c.name});
   // A model whose freedom is not in joints (a Stewart platform's legs are ranges) has nothing
   // to sample: its configuration is perturbed as without the option.
-  const bool has_joint_variable = std::any_of(g.joints.begin(), g.joints.end(), [](const Joint& j) {
-    return HasJointVariable(j.type);
-  });
+  const bool has_joint_variable = std::any_of(
+      g.joints.begin(), g.joints.end(), [](const Joint& j) { return HasJointVariable(j.type); });
   if (options.sample_joints && has_joint_variable) {
     // Constraints beyond the joints (a closed loop, an inequality between parts): the nearest
     // configuration meeting them, or another sample where there is none (a loop that cannot
@@ -123,10 +122,8 @@ Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options
 
   // A model with `fixed:` entries is pinned to the world frame: it is measured where it is.
   const bool pinned =
-      std::any_of(graph.constraints.begin(), graph.constraints.end(), [](const Constraint& c) {
-        return c.kind == "fixed pose" || c.kind == "fixed position" ||
-               c.kind == "fixed orientation" || c.kind == "fixed point";
-      });
+      std::any_of(graph.constraints.begin(), graph.constraints.end(),
+                  [](const Constraint& c) { return c.kind == ConstraintKind::kFixed; });
   Simulation sim;
   bool placed = false;
   for (int attempt = 0; attempt < (pinned ? 1 : 200) && !placed; ++attempt) {

@@ -121,7 +121,7 @@ bool Sound(const Solution& s) {
 std::vector<std::vector<int>> DistanceAnchors(const ConstraintGraph& graph) {
   std::vector<std::vector<int>> anchors(graph.components.size());
   for (const Constraint& c : graph.constraints) {
-    if (c.kind != "distance ==") continue;
+    if (c.kind != ConstraintKind::kDistanceEquality) continue;
     const std::vector<int> ends = ConstraintComponents(graph, c);
     if (ends.size() != 2 || graph.components[ends[0]].rigid || graph.components[ends[1]].rigid) {
       continue;

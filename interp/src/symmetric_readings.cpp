@@ -7,6 +7,7 @@
 #include <limits>
 
 #include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/kernel/evaluate.h"
 
 namespace cfuse {
@@ -237,19 +238,7 @@ std::vector<Reading> SymmetricReadings::Find(const Values& configuration, double
           work.poses[g.blocks[g.components[joint.child].block].index].rotation *
           joint.child_from_joint.rotation;
       const Eigen::Quaterniond relative = parent.conjugate() * child;
-      switch (joint.type) {
-        case JointType::kRevolute:
-        case JointType::kContinuous:
-        case JointType::kPlanar:
-          return (relative * joint.axis).dot(joint.axis) > 0.5;
-        case JointType::kPrismatic:
-        case JointType::kFixed:
-          return relative.angularDistance(Eigen::Quaterniond::Identity()) < 0.5;
-        case JointType::kSpherical:
-        case JointType::kFloating:
-          return true;
-      }
-      return true;
+      return ModelOf(joint.type).NearConfiguration(joint.axis, relative);
     };
     const int c = order_[position];
     const int index = g.blocks[g.components[c].block].index;
@@ -276,9 +265,8 @@ std::vector<Reading> SymmetricReadings::Find(const Values& configuration, double
     work.poses[index] = configuration.poses[index];
   };
   search(search, 0, 0.0);
-  std::stable_sort(out.begin(), out.end(), [](const Reading& a, const Reading& b) {
-    return a.violation < b.violation;
-  });
+  std::stable_sort(out.begin(), out.end(),
+                   [](const Reading& a, const Reading& b) { return a.violation < b.violation; });
   if (out.size() > static_cast<size_t>(max_readings)) out.resize(max_readings);
   return out;
 }

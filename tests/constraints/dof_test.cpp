@@ -23,13 +23,13 @@ struct Model {
          b.graph().nominal.points[b.graph().blocks[b.graph().components[j].block].index])
             .norm(),
         Quantity::Length());
-    b.AddConstraint(b.UniqueConstraintName("d"), "distance",
-                    EqualityResidual::Create(d, nominal, b.Context()), {});
+    b.AddConstraint(b.UniqueConstraintName("d"), ConstraintKind::kDistanceEquality,
+                    "distance ==", EqualityResidual::Create(d, nominal, b.Context()), {});
   }
   void Relation(const char* name, std::vector<int> points) {
     std::vector<ExprPtr> args;
     for (int p : points) args.push_back(P(p));
-    b.AddConstraint(b.UniqueConstraintName(name), name,
+    b.AddConstraint(b.UniqueConstraintName(name), FindRelation(name)->kind, name,
                     FindRelation(name)->create(args, b.Context()), {});
   }
   DofReport Dof() const { return AnalyzeDof(b.graph(), b.graph().nominal); }

@@ -61,10 +61,11 @@ struct Scene {
   void Equal(const std::string& name, ExprPtr lhs) {
     ExprPtr rhs = lhs->type.vector ? MakeVectorConstant({0.1, 0.2, 0.3}, lhs->type.quantity)
                                    : MakeConstant(0.25, lhs->type.quantity);
-    builder.AddConstraint(name, "test", EqualityResidual::Create(lhs, rhs, builder.Context()), {});
+    builder.AddConstraint(name, ConstraintKind::kExpression, "test",
+                          EqualityResidual::Create(lhs, rhs, builder.Context()), {});
   }
   void Relation(const std::string& name, const char* relation, std::vector<ExprPtr> args) {
-    builder.AddConstraint(name, relation,
+    builder.AddConstraint(name, FindRelation(relation)->kind, relation,
                           FindRelation(relation)->create(std::move(args), builder.Context()), {});
   }
 
@@ -128,7 +129,7 @@ const std::vector<std::pair<const char*, Builder>>& Cases() {
              Scene::Call(Function::kDistance, {s.P("p"), s.F("B", "a")}),
              MakeConstant(0.1, Quantity::Length()), true, s.builder.Context(slack), &s0);
          s.builder.SetSlackNominal(slack, 0.7);
-         s.builder.AddConstraint("k", "test", std::move(parts), {});
+         s.builder.AddConstraint("k", ConstraintKind::kExpression, "test", std::move(parts), {});
        }},
       {"range",
        [](Scene& s) {
@@ -138,7 +139,7 @@ const std::vector<std::pair<const char*, Builder>>& Cases() {
              Scene::Call(Function::kAngle, {s.P("p"), s.F("B", "a"), s.F("C", "b")}), 0.2, 2.5,
              s.builder.Context(slack), &s0);
          s.builder.SetSlackNominal(slack, 0.4);
-         s.builder.AddConstraint("k", "test", std::move(parts), {});
+         s.builder.AddConstraint("k", ConstraintKind::kExpression, "test", std::move(parts), {});
        }},
       {"parallel",
        [](Scene& s) {
@@ -204,6 +205,39 @@ TEST_CASE("jacobian: every function and constraint kind matches central differen
         Scene scene(seed);
         build(scene);
         CheckAllConstraints(scene);
+      }
+    }
+  }
+}
+
+// Every relation of the registry, with sample arguments of the sort it takes: a relation added
+// there is checked here without a line of its own.
+TEST_CASE("jacobian: every registered relation, at its fewest arguments and more",
+          "[constraints]") {
+  REQUIRE(AllRelations().size() >= 5);
+  for (const RelationKind& kind : AllRelations()) {
+    const int most = kind.max_args >= 0 ? kind.max_args : kind.min_args + 2;
+    for (int n = kind.min_args; n <= most; ++n) {
+      for (unsigned seed = 1; seed <= 2; ++seed) {
+        DYNAMIC_SECTION(kind.name << " of " << n << ", seed " << seed) {
+          Scene scene(seed);
+          // Feature points of rigid components and single points in turn; a vector is the
+          // difference of two of them.
+          const std::vector<ExprPtr> points = {
+              scene.F("A", "a"), scene.P("p"),      scene.F("B", "b"),
+              scene.P("q"),      scene.F("C", "a"), scene.P("r"),
+              scene.F("D", "b"), scene.P("s"),      scene.F("E", "a")};
+          std::vector<ExprPtr> args;
+          for (int i = 0; i < n; ++i) {
+            args.push_back(kind.argument == RelationKind::Argument::kPoint
+                               ? points.at(i)
+                               : Scene::Sub(points.at(2 * i), points.at(2 * i + 1)));
+          }
+          scene.builder.AddConstraint("k", kind.kind, kind.name,
+                                      kind.create(std::move(args), scene.builder.Context()), {});
+          CHECK(scene.builder.graph().constraints[0].kind == kind.kind);
+          CheckAllConstraints(scene);
+        }
       }
     }
   }

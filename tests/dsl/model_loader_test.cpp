@@ -91,7 +91,8 @@ TEST_CASE("examples: off the constraint surface no row is left out", "[dsl]") {
   const std::string exact = "position: 75.22868402252183";
   REQUIRE(text.find(exact) != std::string::npos);
   text.replace(text.find(exact), exact.size(), "position: 76.22868402252183");
-  const ConstraintGraph g = LoadModelFromString(text, "four-bar-open.yaml", testing::SourcePath("examples"));
+  const ConstraintGraph g =
+      LoadModelFromString(text, "four-bar-open.yaml", testing::SourcePath("examples"));
   const Constraint& loop = g.constraints[g.FindConstraint("loop")];
   CHECK(loop.redundant_rows == 0);
   CHECK(loop.residual->dimension() == 3);
@@ -102,7 +103,7 @@ TEST_CASE("examples: the lamp is the paper's 23-point model", "[dsl]") {
   CHECK(g.components.size() == 23);
   CHECK(g.tangent_dim() == 69);
   std::map<std::string, int> kinds;
-  for (const Constraint& c : g.constraints) kinds[c.kind] += 1;
+  for (const Constraint& c : g.constraints) kinds[c.kind_name] += 1;
   CHECK(kinds["distance =="] == 50);
   CHECK(kinds["parallel"] == 2);
   CHECK(kinds["coplanar"] == 4);
@@ -324,11 +325,14 @@ fixed:
   - {point: b.z}
 )yaml");
   CHECK(g.constraints.size() == 4);
-  CHECK(g.constraints[0].kind == "fixed pose");
+  CHECK(g.constraints[0].kind_name == "fixed pose");
+  CHECK(g.constraints[0].kind == ConstraintKind::kFixed);
+  CHECK(g.constraints[0].fixed_pose.has_value());
   CHECK(g.constraints[0].residual->dimension() == 6);
-  CHECK(g.constraints[1].kind == "fixed orientation");
+  CHECK(g.constraints[1].kind_name == "fixed orientation");
+  CHECK_FALSE(g.constraints[1].fixed_pose.has_value());
   CHECK(g.constraints[1].residual->dimension() == 3);
-  CHECK(g.constraints[2].kind == "fixed point");
+  CHECK(g.constraints[2].kind_name == "fixed point");
   CHECK(g.constraints[3].name == "fixed_b_z");
   CHECK(MaxNominalResidual(g) < 1e-12);
   const DofReport r = AnalyzeDof(g, g.nominal);
@@ -346,7 +350,7 @@ constraints:
   CHECK(g.constraints[0].name == "c1");
   CHECK(g.constraints[1].name == "square");
   CHECK(g.constraints[2].name == "c3");
-  CHECK(g.constraints[2].kind == "coplanar");
+  CHECK(g.constraints[2].kind_name == "coplanar");
   // Not the name of a point: messages would name two things alike.
   const ConstraintGraph h = Load(R"yaml(
 points: {c1: [0, 0, 0], b: [1, 0, 0], c: [0, 1, 0]}

@@ -52,8 +52,8 @@ struct LinearProblem {
       return MakePointRef(builder.graph().components[builder.FindComponent(name)].block);
     };
     auto add = [&](const char* name, ExprPtr lhs, ExprPtr rhs) {
-      builder.AddConstraint(name, "test", EqualityResidual::Create(lhs, rhs, builder.Context()),
-                            {});
+      builder.AddConstraint(name, ConstraintKind::kExpression, "test",
+                            EqualityResidual::Create(lhs, rhs, builder.Context()), {});
     };
     const ExprPtr ab = MakeBinary(Expr::Op::kSub, P("a"), P("b"), &why);
     add("ab", ab, MakeVectorConstant({0.1, 0.02, -0.03}, Quantity::Length()));
@@ -120,11 +120,11 @@ TEST_CASE("estimator: contradictory constraints are refused; the state is left a
   std::string why;
   const ExprPtr diff = MakeBinary(Expr::Op::kSub, MakePointRef(b.graph().components[a].block),
                                   MakePointRef(b.graph().components[c].block), &why);
-  b.AddConstraint("gap", "test",
+  b.AddConstraint("gap", ConstraintKind::kExpression, "test",
                   EqualityResidual::Create(
                       diff, MakeVectorConstant({0.1, 0, 0}, Quantity::Length()), b.Context()),
                   {});
-  b.AddConstraint("other_gap", "test",
+  b.AddConstraint("other_gap", ConstraintKind::kExpression, "test",
                   EqualityResidual::Create(
                       diff, MakeVectorConstant({0.1, 0.001, 0}, Quantity::Length()), b.Context()),
                   {});

@@ -57,7 +57,7 @@ struct ComponentFrame {
 };
 
 struct Component {
-  std::string name;  // as the source file spells it
+  std::string name;    // as the source file spells it
   bool rigid = false;  // rigid: 6-DOF pose block; otherwise one 3-DOF point block (§5)
   // A rigid component's nominal pose was given (or set by a joint); when not, a joint whose
   // child it is places it.
@@ -134,9 +134,27 @@ struct MergedJoint {
   std::string alias;
 };
 
+// What a constraint states, for the algorithms that treat some statements apart: the fusion
+// order's rigid triangles (distances, rigid sets), the distance anchors of a single point seen
+// from one image, a simulation's fixed entries, forward kinematics' fixed roots.
+enum class ConstraintKind {
+  kExpression,        // an expression compared: ==, <=, >=, in (other than the one below)
+  kDistanceEquality,  // distance(a, b) == ...
+  kRelation,          // parallel, perpendicular, coplanar, collinear
+  kRigid,             // rigid(p1, p2, ...)
+  kFixed,             // a pose, position, orientation or point fixed in the world
+  kJoint,
+  kJointLimit,
+  kMimicJoint,
+};
+
 struct Constraint {
   std::string name;
-  std::string kind;  // e.g. "distance ==", "parallel", "revolute joint", "joint limit"
+  ConstraintKind kind = ConstraintKind::kExpression;
+  // The kind for people: "distance ==", "parallel", "revolute joint", "joint limit".
+  std::string kind_name;
+  // A kFixed constraint holding both position and orientation: the pose it holds.
+  std::optional<Rigid3d> fixed_pose;
   std::shared_ptr<const ResidualFunction> residual;
   std::vector<int> blocks;  // the residual's slots: block ids
   int slack_block = -1;     // the slack of an inequality (also among `blocks`), or -1
@@ -157,7 +175,7 @@ struct ConstraintGraph {
   Values nominal;
 
   int tangent_dim() const;
-  int num_equations() const;                       // sum of the constraints' dimensions
+  int num_equations() const;  // sum of the constraints' dimensions
   // By name or alias; -1 if absent.
   int FindComponent(std::string_view name) const;
   int FindJoint(std::string_view name) const;

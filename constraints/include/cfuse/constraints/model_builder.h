@@ -90,8 +90,8 @@ class ModelBuilder {
 
   // Adds a constraint; throws InputError at `where` if its residual or Jacobian is not finite
   // at the nominal geometry. Returns its index.
-  int AddConstraint(const std::string& name, const std::string& kind, ConstraintParts parts,
-                    const SourceLocation& where);
+  int AddConstraint(const std::string& name, ConstraintKind kind, const std::string& kind_name,
+                    ConstraintParts parts, const SourceLocation& where);
   // A free name for a constraint: `preferred` if unused, else preferred_2, preferred_3, ...
   std::string UniqueConstraintName(const std::string& preferred) const;
 

@@ -3,6 +3,7 @@
 // in registry.cpp.
 #pragma once
 
+#include <string>
 #include <string_view>
 #include <vector>
 
@@ -14,7 +15,10 @@ namespace cfuse {
 
 // A relation written as a call: parallel(u, v), coplanar(a, b, c, d, ...), rigid(...).
 struct RelationKind {
+  enum class Argument { kPoint, kVector };
   const char* name;
+  ConstraintKind kind;
+  Argument argument;  // what each argument is
   int min_args;
   int max_args;  // -1: no upper bound
   const char* usage;
@@ -23,6 +27,8 @@ struct RelationKind {
 
 const RelationKind* FindRelation(std::string_view name);
 const std::vector<RelationKind>& AllRelations();
+// "parallel, perpendicular, ...": the relations' names, for messages.
+std::string RelationNames();
 
 // The residual of a joint of this type, over the slots (parent pose, child pose); not for a
 // floating joint, which has none.
