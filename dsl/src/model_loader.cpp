@@ -54,6 +54,24 @@ class Loader {
   void ReadPoints(const Document& doc, const YAML::Node& node);
   void ReadMarkers(const Document& doc, const YAML::Node& node);
   void ReadJoints(const Document& doc, const YAML::Node& node);
+  // A joint read but not yet added: joints are added parents first, and mimics once all exist.
+  struct PendingJoint {
+    JointSpec spec;
+    YAML::Node key;
+    YAML::Node mimic;
+  };
+  PendingJoint ReadJoint(const Document& doc, const YAML::Node& key, const YAML::Node& value,
+                         const std::vector<PendingJoint>& pending) const;
+  void ReadJointEnds(const Document& doc,
+                     const std::vector<std::pair<YAML::Node, YAML::Node>>& entries,
+                     const YAML::Node& value, const std::string& what,
+                     const std::vector<PendingJoint>& pending, JointSpec* spec) const;
+  void ReadJointMotion(const Document& doc,
+                       const std::vector<std::pair<YAML::Node, YAML::Node>>& entries,
+                       const YAML::Node& value, const std::string& what,
+                       const std::string& type_name, JointSpec* spec) const;
+  void AddJointsParentsFirst(const Document& doc, const std::vector<PendingJoint>& pending);
+  void ReadMimic(const Document& doc, const PendingJoint& p);
   void ReadFixed(const Document& doc, const YAML::Node& node);
   void ReadConstraints(const Document& doc, const YAML::Node& node);
   int RequireComponent(const Document& doc, const YAML::Node& name_node, const char* role) const;
@@ -323,108 +341,134 @@ int Loader::RequireComponent(const Document& doc, const YAML::Node& name_node,
 }
 
 void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
-  struct Pending {
-    JointSpec spec;
-    YAML::Node key;
-    YAML::Node mimic;
-  };
-  std::vector<Pending> pending;
+  std::vector<PendingJoint> pending;
   for (const auto& [key, value] : doc.Entries(node, "joints", {})) {
-    const std::string name = key.Scalar();
-    const std::string what = fmt::format("joint '{}'", name);
-    if (value.IsNull())
-      doc.Fail(key,
-               fmt::format("{} has no definition: it needs a type, a parent and a child", what));
-    const auto entries = doc.Entries(
-        value, what, {"type", "parent", "child", "origin", "axis", "limits", "position", "mimic"});
-    JointSpec spec;
-    spec.name = name;
-    spec.where = doc.Loc(key);
-    const YAML::Node type = Document::Find(entries, "type");
-    if (!Present(type)) doc.Fail(value, fmt::format("{} needs a 'type'", what));
-    const std::string type_name = doc.Scalar(type, "a joint type");
-    const std::optional<JointType> t = ParseJointType(type_name);
-    if (!t) {
-      doc.Fail(type, fmt::format("unknown joint type '{}'; the types are revolute, continuous, "
-                                 "prismatic, spherical, fixed, planar, floating",
-                                 type_name));
-    }
-    spec.type = *t;
-    for (const char* role : {"parent", "child"}) {
-      const YAML::Node n = Document::Find(entries, role);
-      if (!Present(n)) doc.Fail(value, fmt::format("{} needs a '{}' component", what, role));
-      const int c = RequireComponent(doc, n, role);
-      // Refused here, at the component's name; ModelBuilder::AddJoint checks the same.
-      const Component& comp = builder_->graph().components[c];
-      if (!comp.rigid) {
-        doc.Fail(n, fmt::format("{}: '{}' is a single-point component; joints connect rigid "
-                                "components",
-                                what, comp.name));
-      }
-      if (std::string(role) == "parent") {
-        spec.parent = c;
-        continue;
-      }
-      if (c == spec.parent) doc.Fail(n, fmt::format("{} connects '{}' to itself", what, comp.name));
-      std::vector<std::pair<std::string, SourceLocation>> joints;  // earlier ones, with children
-      for (const Joint& j : builder_->graph().joints) {
-        if (j.child == c) joints.emplace_back(j.name, j.where);
-      }
-      for (const Pending& p : pending) {
-        if (p.spec.child == c) joints.emplace_back(p.spec.name, p.spec.where);
-      }
-      if (!joints.empty()) {
-        doc.Fail(n, fmt::format("{}: component '{}' is already the child of joint '{}' (at {}); "
-                                "close a kinematic loop with a constraint instead",
-                                what, comp.name, joints[0].first, joints[0].second.ToString()));
-      }
-      spec.child = c;
-    }
-    if (YAML::Node n = Document::Find(entries, "origin"); Present(n)) {
-      spec.parent_from_joint = Pose(doc, n, "origin");
-    }
-    const bool has_variable = HasJointVariable(spec.type);
-    const Quantity q = spec.type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
-    const YAML::Node axis = Document::Find(entries, "axis");
-    if (has_variable || spec.type == JointType::kPlanar) {
-      if (!Present(axis)) doc.Fail(value, fmt::format("{} ({}) needs an 'axis'", what, type_name));
-      spec.axis = Vector(doc, axis, Quantity{}, "axis");
-      if (!(spec.axis.norm() > 1e-9))
-        doc.Fail(axis, fmt::format("{}: the axis has zero length", what));
-    } else if (Present(axis)) {
-      doc.Fail(axis, fmt::format("a {} joint has no axis", type_name));
-    }
-    if (YAML::Node n = Document::Find(entries, "limits"); Present(n)) {
-      if (!has_variable || spec.type == JointType::kContinuous) {
-        doc.Fail(n, fmt::format("a {} joint has no limits{}", type_name,
-                                spec.type == JointType::kContinuous ? " (use revolute)" : ""));
-      }
-      if (!n.IsSequence() || n.size() != 2) doc.Fail(n, "limits must be a list [lower, upper]");
-      const double lo = Quantity1(doc, n[0], q, "lower limit");
-      const double hi = Quantity1(doc, n[1], q, "upper limit");
-      if (!(lo < hi))
-        doc.Fail(n, fmt::format("{}: the lower limit is not below the upper limit", what));
-      // [-90, 90] in a file whose angles are radians: degrees meant. Two turns either way is
-      // beyond any revolute joint's travel (a joint that turns freely is continuous).
-      if (spec.type == JointType::kRevolute && std::max(std::abs(lo), std::abs(hi)) > 4 * M_PI) {
-        doc.Fail(n, fmt::format("{}: limits [{:g}, {:g}] rad are more than two turns from zero: "
-                                "degrees meant? write them with 'deg' or declare units: {{angle: "
-                                "deg}} (a joint that turns freely is continuous)",
-                                what, lo, hi));
-      }
-      spec.limits = std::make_pair(lo, hi);
-    }
-    if (YAML::Node n = Document::Find(entries, "position"); Present(n)) {
-      if (!has_variable) doc.Fail(n, fmt::format("a {} joint has no position", type_name));
-      spec.position = Quantity1(doc, n, q, "joint position");
-    }
-    const YAML::Node mimic = Document::Find(entries, "mimic");
-    if (Present(mimic) && !has_variable) {
-      doc.Fail(mimic, fmt::format("a {} joint has no variable to mimic with", type_name));
-    }
-    pending.push_back({spec, key, mimic});
+    pending.push_back(ReadJoint(doc, key, value, pending));
   }
-  // Parents first: a child's nominal pose may derive from its parent's.
+  AddJointsParentsFirst(doc, pending);
+  // Mimics, once every joint exists.
+  for (const PendingJoint& p : pending) {
+    if (Present(p.mimic)) ReadMimic(doc, p);
+  }
+}
+
+// One joint's entry; `pending`, the joints read before it.
+Loader::PendingJoint Loader::ReadJoint(const Document& doc, const YAML::Node& key,
+                                       const YAML::Node& value,
+                                       const std::vector<PendingJoint>& pending) const {
+  const std::string name = key.Scalar();
+  const std::string what = fmt::format("joint '{}'", name);
+  if (value.IsNull())
+    doc.Fail(key, fmt::format("{} has no definition: it needs a type, a parent and a child", what));
+  const auto entries = doc.Entries(
+      value, what, {"type", "parent", "child", "origin", "axis", "limits", "position", "mimic"});
+  JointSpec spec;
+  spec.name = name;
+  spec.where = doc.Loc(key);
+  const YAML::Node type = Document::Find(entries, "type");
+  if (!Present(type)) doc.Fail(value, fmt::format("{} needs a 'type'", what));
+  const std::string type_name = doc.Scalar(type, "a joint type");
+  const std::optional<JointType> t = ParseJointType(type_name);
+  if (!t) {
+    doc.Fail(type, fmt::format("unknown joint type '{}'; the types are revolute, continuous, "
+                               "prismatic, spherical, fixed, planar, floating",
+                               type_name));
+  }
+  spec.type = *t;
+  ReadJointEnds(doc, entries, value, what, pending, &spec);
+  if (YAML::Node n = Document::Find(entries, "origin"); Present(n)) {
+    spec.parent_from_joint = Pose(doc, n, "origin");
+  }
+  ReadJointMotion(doc, entries, value, what, type_name, &spec);
+  const YAML::Node mimic = Document::Find(entries, "mimic");
+  if (Present(mimic) && !HasJointVariable(spec.type)) {
+    doc.Fail(mimic, fmt::format("a {} joint has no variable to mimic with", type_name));
+  }
+  return {spec, key, mimic};
+}
+
+// The parent and the child: rigid components, the child not the parent and the child of no
+// other joint (a kinematic loop is closed with a constraint).
+void Loader::ReadJointEnds(const Document& doc,
+                           const std::vector<std::pair<YAML::Node, YAML::Node>>& entries,
+                           const YAML::Node& value, const std::string& what,
+                           const std::vector<PendingJoint>& pending, JointSpec* spec) const {
+  for (const char* role : {"parent", "child"}) {
+    const YAML::Node n = Document::Find(entries, role);
+    if (!Present(n)) doc.Fail(value, fmt::format("{} needs a '{}' component", what, role));
+    const int c = RequireComponent(doc, n, role);
+    // Refused here, at the component's name; ModelBuilder::AddJoint checks the same.
+    const Component& comp = builder_->graph().components[c];
+    if (!comp.rigid) {
+      doc.Fail(n, fmt::format("{}: '{}' is a single-point component; joints connect rigid "
+                              "components",
+                              what, comp.name));
+    }
+    if (std::string(role) == "parent") {
+      spec->parent = c;
+      continue;
+    }
+    if (c == spec->parent) doc.Fail(n, fmt::format("{} connects '{}' to itself", what, comp.name));
+    std::vector<std::pair<std::string, SourceLocation>> joints;  // earlier ones, with children
+    for (const Joint& j : builder_->graph().joints) {
+      if (j.child == c) joints.emplace_back(j.name, j.where);
+    }
+    for (const PendingJoint& p : pending) {
+      if (p.spec.child == c) joints.emplace_back(p.spec.name, p.spec.where);
+    }
+    if (!joints.empty()) {
+      doc.Fail(n, fmt::format("{}: component '{}' is already the child of joint '{}' (at {}); "
+                              "close a kinematic loop with a constraint instead",
+                              what, comp.name, joints[0].first, joints[0].second.ToString()));
+    }
+    spec->child = c;
+  }
+}
+
+// The axis, limits and position, each where the joint's type has it.
+void Loader::ReadJointMotion(const Document& doc,
+                             const std::vector<std::pair<YAML::Node, YAML::Node>>& entries,
+                             const YAML::Node& value, const std::string& what,
+                             const std::string& type_name, JointSpec* spec) const {
+  const bool has_variable = HasJointVariable(spec->type);
+  const Quantity q = spec->type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+  const YAML::Node axis = Document::Find(entries, "axis");
+  if (has_variable || spec->type == JointType::kPlanar) {
+    if (!Present(axis)) doc.Fail(value, fmt::format("{} ({}) needs an 'axis'", what, type_name));
+    spec->axis = Vector(doc, axis, Quantity{}, "axis");
+    if (!(spec->axis.norm() > 1e-9))
+      doc.Fail(axis, fmt::format("{}: the axis has zero length", what));
+  } else if (Present(axis)) {
+    doc.Fail(axis, fmt::format("a {} joint has no axis", type_name));
+  }
+  if (YAML::Node n = Document::Find(entries, "limits"); Present(n)) {
+    if (!has_variable || spec->type == JointType::kContinuous) {
+      doc.Fail(n, fmt::format("a {} joint has no limits{}", type_name,
+                              spec->type == JointType::kContinuous ? " (use revolute)" : ""));
+    }
+    if (!n.IsSequence() || n.size() != 2) doc.Fail(n, "limits must be a list [lower, upper]");
+    const double lo = Quantity1(doc, n[0], q, "lower limit");
+    const double hi = Quantity1(doc, n[1], q, "upper limit");
+    if (!(lo < hi))
+      doc.Fail(n, fmt::format("{}: the lower limit is not below the upper limit", what));
+    // [-90, 90] in a file whose angles are radians: degrees meant. Two turns either way is
+    // beyond any revolute joint's travel (a joint that turns freely is continuous).
+    if (spec->type == JointType::kRevolute && std::max(std::abs(lo), std::abs(hi)) > 4 * M_PI) {
+      doc.Fail(n, fmt::format("{}: limits [{:g}, {:g}] rad are more than two turns from zero: "
+                              "degrees meant? write them with 'deg' or declare units: {{angle: "
+                              "deg}} (a joint that turns freely is continuous)",
+                              what, lo, hi));
+    }
+    spec->limits = std::make_pair(lo, hi);
+  }
+  if (YAML::Node n = Document::Find(entries, "position"); Present(n)) {
+    if (!has_variable) doc.Fail(n, fmt::format("a {} joint has no position", type_name));
+    spec->position = Quantity1(doc, n, q, "joint position");
+  }
+}
+
+// Parents first: a child's nominal pose may derive from its parent's.
+void Loader::AddJointsParentsFirst(const Document& doc, const std::vector<PendingJoint>& pending) {
   std::vector<bool> done(pending.size(), false);
   for (size_t added = 0; added < pending.size();) {
     bool progress = false;
@@ -457,39 +501,37 @@ void Loader::ReadJoints(const Document& doc, const YAML::Node& node) {
                fmt::format("joint '{}' is part of a cycle of joints", pending[i].spec.name));
     }
   }
-  // Mimics, once every joint exists: q = multiplier * q_leader + offset.
-  for (const Pending& p : pending) {
-    if (!Present(p.mimic)) continue;
-    const std::string what = fmt::format("joint '{}'", p.spec.name);
-    const auto entries = doc.Entries(p.mimic, what + " mimic", {"joint", "multiplier", "offset"});
-    const YAML::Node leader = Document::Find(entries, "joint");
-    if (!Present(leader)) doc.Fail(p.mimic, fmt::format("{}: mimic needs a 'joint'", what));
-    const std::string leader_name = doc.Scalar(leader, "a joint name");
-    const int lead = builder_->FindJoint(leader_name);
-    if (lead < 0) {
-      std::vector<std::string> names;
-      for (const Joint& j : builder_->graph().joints) names.push_back(j.name);
-      const std::string s = Suggest(leader_name, names);
-      doc.Fail(leader,
-               fmt::format("{} mimics joint '{}', which does not exist{}", what, leader_name,
-                           s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
-    }
-    auto quantity = [](JointType t) {
-      return t == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
-    };
-    double multiplier = 1, offset = 0;
-    if (YAML::Node m = Document::Find(entries, "multiplier"); Present(m)) {
-      // In the follower's unit per the leader's: a number between two revolute joints.
-      multiplier =
-          Quantity1(doc, m, quantity(p.spec.type) / quantity(builder_->graph().joints[lead].type),
-                    "mimic multiplier");
-    }
-    if (YAML::Node o = Document::Find(entries, "offset"); Present(o)) {
-      offset = Quantity1(doc, o, quantity(p.spec.type), "mimic offset");
-    }
-    builder_->AddMimic(builder_->FindJoint(p.spec.name), lead, multiplier, offset,
-                       doc.Loc(p.mimic));
+}
+
+// A joint's mimic: q = multiplier * q_leader + offset.
+void Loader::ReadMimic(const Document& doc, const PendingJoint& p) {
+  const std::string what = fmt::format("joint '{}'", p.spec.name);
+  const auto entries = doc.Entries(p.mimic, what + " mimic", {"joint", "multiplier", "offset"});
+  const YAML::Node leader = Document::Find(entries, "joint");
+  if (!Present(leader)) doc.Fail(p.mimic, fmt::format("{}: mimic needs a 'joint'", what));
+  const std::string leader_name = doc.Scalar(leader, "a joint name");
+  const int lead = builder_->FindJoint(leader_name);
+  if (lead < 0) {
+    std::vector<std::string> names;
+    for (const Joint& j : builder_->graph().joints) names.push_back(j.name);
+    const std::string s = Suggest(leader_name, names);
+    doc.Fail(leader, fmt::format("{} mimics joint '{}', which does not exist{}", what, leader_name,
+                                 s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
   }
+  auto quantity = [](JointType t) {
+    return t == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+  };
+  double multiplier = 1, offset = 0;
+  if (YAML::Node m = Document::Find(entries, "multiplier"); Present(m)) {
+    // In the follower's unit per the leader's: a number between two revolute joints.
+    multiplier =
+        Quantity1(doc, m, quantity(p.spec.type) / quantity(builder_->graph().joints[lead].type),
+                  "mimic multiplier");
+  }
+  if (YAML::Node o = Document::Find(entries, "offset"); Present(o)) {
+    offset = Quantity1(doc, o, quantity(p.spec.type), "mimic offset");
+  }
+  builder_->AddMimic(builder_->FindJoint(p.spec.name), lead, multiplier, offset, doc.Loc(p.mimic));
 }
 
 void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {

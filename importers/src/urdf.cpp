@@ -136,7 +136,13 @@ class UrdfReader {
            fmt::format("not a URDF file: the root element is <{}>, not <robot>", robot_->Value()));
     }
     if (!robot_->Attribute("name")) Fail(robot_, "", "<robot> needs a 'name'");
+    CheckLinks();
+    CheckJoints();
+    CheckTree();
+  }
 
+  // Each <link>: a name no other link has, and the numbers of its visuals and collisions.
+  void CheckLinks() {
     for (const TiXmlElement* e = robot_->FirstChildElement("link"); e;
          e = e->NextSiblingElement("link")) {
       const char* name = e->Attribute("name");
@@ -158,78 +164,14 @@ class UrdfReader {
       }
     }
     if (links_.empty()) Fail(robot_, "", "the robot has no <link>");
+  }
 
+  // Each <joint> (CheckJoint), then the joint each <mimic> names, once all are known.
+  void CheckJoints() {
     std::map<std::string, int> joint_index;
     for (const TiXmlElement* e = robot_->FirstChildElement("joint"); e;
          e = e->NextSiblingElement("joint")) {
-      XmlJoint j;
-      j.element = e;
-      const char* name = e->Attribute("name");
-      if (!name || !*name) Fail(e, "", "a <joint> needs a 'name'");
-      j.name = name;
-      const std::string element = fmt::format("joint '{}'", j.name);
-      if (joint_index.count(j.name)) {
-        Fail(e, element,
-             fmt::format("duplicate joint name '{}', first defined at line {}", j.name,
-                         joints_[joint_index[j.name]].element->Row()));
-      }
-      const char* type = e->Attribute("type");
-      if (!type) Fail(e, element, "a <joint> needs a 'type'");
-      j.type = type;
-      static const char* const kTypes[] = {"revolute", "continuous", "prismatic",
-                                           "fixed",    "floating",   "planar"};
-      if (std::none_of(std::begin(kTypes), std::end(kTypes),
-                       [&](const char* t) { return j.type == t; })) {
-        Fail(e, element,
-             fmt::format("unknown joint type '{}'; the types are revolute, "
-                         "continuous, prismatic, fixed, floating, planar",
-                         j.type));
-      }
-      for (const char* role : {"parent", "child"}) {
-        const TiXmlElement* r = e->FirstChildElement(role);
-        if (!r) Fail(e, element, fmt::format("a <joint> needs a <{}>", role));
-        const char* link = r->Attribute("link");
-        if (!link) Fail(r, element, fmt::format("<{}> needs a 'link'", role));
-        if (!link_index_.count(link)) {
-          Fail(r, element, fmt::format("unknown {} link '{}'", role, link));
-        }
-        (std::strcmp(role, "parent") == 0 ? j.parent : j.child) = link;
-        (std::strcmp(role, "parent") == 0 ? j.parent_element : j.child_element) = r;
-      }
-      if (j.parent == j.child) {
-        Fail(j.child_element, element, fmt::format("joins link '{}' to itself", j.parent));
-      }
-      CheckOrigin(e, element);
-      const bool has_axis = j.type != "fixed" && j.type != "floating";
-      if (const TiXmlElement* a = e->FirstChildElement("axis"); a && has_axis) {
-        const std::vector<double> v = Numbers(a, "xyz", 3, element, std::nullopt);
-        if (!(std::hypot(v[0], v[1], v[2]) > 1e-9)) {
-          Fail(a, element, "the axis has zero length");
-        }
-      }
-      const TiXmlElement* limit = e->FirstChildElement("limit");
-      if (j.type == "revolute" || j.type == "prismatic") {
-        if (!limit) Fail(e, element, fmt::format("a {} joint needs a <limit>", j.type));
-        const double lower = Numbers(limit, "lower", 1, element, std::vector<double>{0})[0];
-        const double upper = Numbers(limit, "upper", 1, element, std::vector<double>{0})[0];
-        if (lower > upper) {
-          Fail(limit, element,
-               fmt::format("inverted limits: lower {} is above upper {}", lower, upper));
-        }
-        j.locked = lower == upper;
-        j.locked_at = lower;
-      }
-      if (limit) {
-        for (const char* attribute : {"effort", "velocity"}) {
-          if (limit->Attribute(attribute)) Numbers(limit, attribute, 1, element, std::nullopt);
-        }
-      }
-      if (const TiXmlElement* m = e->FirstChildElement("mimic")) {
-        j.mimic_element = m;
-        if (!m->Attribute("joint")) Fail(m, element, "<mimic> needs a 'joint'");
-        Numbers(m, "multiplier", 1, element, std::vector<double>{1});
-        Numbers(m, "offset", 1, element, std::vector<double>{0});
-      }
+      XmlJoint j = CheckJoint(e, joint_index);
       joint_index[j.name] = static_cast<int>(joints_.size());
       joints_.push_back(std::move(j));
     }
@@ -243,8 +185,90 @@ class UrdfReader {
       }
       if (leader == j.name) Fail(j.mimic_element, element, "mimics itself");
     }
+  }
 
-    // One tree: every link the child of at most one joint, one root, no cycle.
+  // One <joint>: a name no earlier joint has (`joint_index`), a known type, two different known
+  // links, then its numbers (CheckJointNumbers).
+  XmlJoint CheckJoint(const TiXmlElement* e, const std::map<std::string, int>& joint_index) const {
+    XmlJoint j;
+    j.element = e;
+    const char* name = e->Attribute("name");
+    if (!name || !*name) Fail(e, "", "a <joint> needs a 'name'");
+    j.name = name;
+    const std::string element = fmt::format("joint '{}'", j.name);
+    if (joint_index.count(j.name)) {
+      Fail(e, element,
+           fmt::format("duplicate joint name '{}', first defined at line {}", j.name,
+                       joints_[joint_index.at(j.name)].element->Row()));
+    }
+    const char* type = e->Attribute("type");
+    if (!type) Fail(e, element, "a <joint> needs a 'type'");
+    j.type = type;
+    static const char* const kTypes[] = {"revolute", "continuous", "prismatic",
+                                         "fixed",    "floating",   "planar"};
+    if (std::none_of(std::begin(kTypes), std::end(kTypes),
+                     [&](const char* t) { return j.type == t; })) {
+      Fail(e, element,
+           fmt::format("unknown joint type '{}'; the types are revolute, "
+                       "continuous, prismatic, fixed, floating, planar",
+                       j.type));
+    }
+    for (const char* role : {"parent", "child"}) {
+      const TiXmlElement* r = e->FirstChildElement(role);
+      if (!r) Fail(e, element, fmt::format("a <joint> needs a <{}>", role));
+      const char* link = r->Attribute("link");
+      if (!link) Fail(r, element, fmt::format("<{}> needs a 'link'", role));
+      if (!link_index_.count(link)) {
+        Fail(r, element, fmt::format("unknown {} link '{}'", role, link));
+      }
+      (std::strcmp(role, "parent") == 0 ? j.parent : j.child) = link;
+      (std::strcmp(role, "parent") == 0 ? j.parent_element : j.child_element) = r;
+    }
+    if (j.parent == j.child) {
+      Fail(j.child_element, element, fmt::format("joins link '{}' to itself", j.parent));
+    }
+    CheckJointNumbers(e, element, &j);
+    return j;
+  }
+
+  // A joint's origin, axis, limits and mimic; a revolute or prismatic joint whose limits meet is
+  // locked.
+  void CheckJointNumbers(const TiXmlElement* e, const std::string& element, XmlJoint* j) const {
+    CheckOrigin(e, element);
+    const bool has_axis = j->type != "fixed" && j->type != "floating";
+    if (const TiXmlElement* a = e->FirstChildElement("axis"); a && has_axis) {
+      const std::vector<double> v = Numbers(a, "xyz", 3, element, std::nullopt);
+      if (!(std::hypot(v[0], v[1], v[2]) > 1e-9)) {
+        Fail(a, element, "the axis has zero length");
+      }
+    }
+    const TiXmlElement* limit = e->FirstChildElement("limit");
+    if (j->type == "revolute" || j->type == "prismatic") {
+      if (!limit) Fail(e, element, fmt::format("a {} joint needs a <limit>", j->type));
+      const double lower = Numbers(limit, "lower", 1, element, std::vector<double>{0})[0];
+      const double upper = Numbers(limit, "upper", 1, element, std::vector<double>{0})[0];
+      if (lower > upper) {
+        Fail(limit, element,
+             fmt::format("inverted limits: lower {} is above upper {}", lower, upper));
+      }
+      j->locked = lower == upper;
+      j->locked_at = lower;
+    }
+    if (limit) {
+      for (const char* attribute : {"effort", "velocity"}) {
+        if (limit->Attribute(attribute)) Numbers(limit, attribute, 1, element, std::nullopt);
+      }
+    }
+    if (const TiXmlElement* m = e->FirstChildElement("mimic")) {
+      j->mimic_element = m;
+      if (!m->Attribute("joint")) Fail(m, element, "<mimic> needs a 'joint'");
+      Numbers(m, "multiplier", 1, element, std::vector<double>{1});
+      Numbers(m, "offset", 1, element, std::vector<double>{0});
+    }
+  }
+
+  // One tree: every link the child of at most one joint, one root, no cycle.
+  void CheckTree() {
     parent_joint_.assign(links_.size(), -1);
     children_.assign(links_.size(), {});
     for (size_t i = 0; i < joints_.size(); ++i) {
@@ -469,8 +493,8 @@ class UrdfReader {
       const auto it = spelling.find(item.name);
       if (it == spelling.end() || it->second == item.name) return;
       const bool plain = std::none_of(it->second.begin(), it->second.end(), [](char c) {
-        return std::isspace(static_cast<unsigned char>(c)) || std::iscntrl(static_cast<unsigned char>(c)) ||
-               c == ',' || c == '"' || c == '=';
+        return std::isspace(static_cast<unsigned char>(c)) ||
+               std::iscntrl(static_cast<unsigned char>(c)) || c == ',' || c == '"' || c == '=';
       });
       if (plain) {
         item.alias = item.name;
