@@ -1,8 +1,11 @@
 #include "cfuse/constraints/graph.h"
 
+#include <fmt/format.h>
+
 #include <array>
 
 #include "cfuse/constraints/joint_model.h"
+#include "cfuse/kernel/check.h"
 
 namespace cfuse {
 namespace {
@@ -47,6 +50,26 @@ Rigid3d JointMotion(JointType type, const Eigen::Vector3d& axis, double q) {
 }
 
 bool HasJointVariable(JointType type) { return ModelOf(type).HasVariable(); }
+
+void CheckGraph(const ConstraintGraph& graph) {
+  CheckValuesFit(graph.blocks, graph.nominal);
+  const int num_blocks = static_cast<int>(graph.blocks.size());
+  for (const Component& c : graph.components) {
+    CFUSE_CHECK_GE(c.block, 0);
+    CFUSE_CHECK_LT(c.block, num_blocks);
+    CFUSE_CHECK(graph.blocks[c.block].kind == (c.rigid ? BlockKind::kPose : BlockKind::kPoint));
+  }
+  for (const Constraint& k : graph.constraints) {
+    CFUSE_CHECK_MSG(k.residual != nullptr, fmt::format("constraint '{}' has no residual", k.name));
+    int arity = 0;
+    for (int b : k.blocks) {
+      CFUSE_CHECK_GE(b, 0);
+      CFUSE_CHECK_LT(b, num_blocks);
+      arity += TangentDim(graph.blocks[b].kind);
+    }
+    CFUSE_CHECK_EQ(arity, k.residual->arity());
+  }
+}
 
 int ConstraintGraph::tangent_dim() const {
   int n = 0;

@@ -48,6 +48,8 @@ std::vector<std::array<int, 3>> PlanCache::Triangles(
 
 Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set,
                          const InterpretOptions& options) {
+  CheckGraph(graph);
+  CheckMeasurementSet(set);
   RequireEstimable(graph);
   // Labels do not steer the search, but a label naming no model point is a mistake in the file.
   ResolveLabels(graph, set);

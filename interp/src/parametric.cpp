@@ -496,6 +496,8 @@ std::string ParametricUnsupported(const ConstraintGraph& graph) {
 
 ParametricSolution SolveParametric(const ConstraintGraph& graph, const MeasurementSet& set,
                                    const ParametricOptions& options) {
+  CheckGraph(graph);
+  CheckMeasurementSet(set);
   ParametricSolution out;
   Solution& solution = out.solution;
   solution.extent = ModelExtent(graph);

@@ -413,6 +413,7 @@ class FusionPlanner {
 }  // namespace
 
 FusionPlan PlanFusion(const ConstraintGraph& g, bool image_data, const PlanStart* given) {
+  CheckGraph(g);
   return FusionPlanner(g, image_data, given).Plan();
 }
 

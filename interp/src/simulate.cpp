@@ -109,6 +109,7 @@ Values Configuration(const ConstraintGraph& g, const SimulateOptions& options, s
 }  // namespace
 
 Simulation Simulate(const ConstraintGraph& graph, const SimulateOptions& options) {
+  CheckGraph(graph);
   RequireEstimable(graph);
   std::mt19937 rng(options.seed);
   const double extent = ModelExtent(graph);

@@ -391,6 +391,8 @@ bool Distinct(const ConstraintGraph& graph, const Values& other, const GaussianS
 
 Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
                const SolveOptions& options) {
+  CheckGraph(graph);
+  CheckMeasurementSet(set);
   RequireEstimable(graph);
   Solution solution;
   solution.labels = ResolveLabels(graph, set);

@@ -270,8 +270,8 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
   Eigen::Map<Eigen::MatrixXd> Tr = Scratch(&ws->T, m, rank), G = Scratch(&ws->G, a, rank);
   Eigen::Map<Eigen::MatrixXd> Sr = Scratch(&ws->C, rank, rank);
   if (m > 1 && rank == m && ws->eigen.eigenvalues()(0) > kWellConditioned) {
-    // Rows far from dependent: the eigenvectors u of S, accurate there (the directions of
-    // the filter before issue 8, with which the interpretation tree was tuned).
+    // Rows far from dependent: the eigenvectors u of S, accurate there (the directions the
+    // filter always took for such rows, with which the interpretation tree's gates were tuned).
     SmallProduct(H, P_aa, &HP);
     SmallProductTransposed(HP, H, &S_mat);
     ws->eigen.compute(S_mat);
@@ -354,8 +354,8 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
 // (I - K H) P0 (I - K H)ᵀ + K R Kᵀ = P0 - W (2I - M) Wᵀ with M = Bᵀ (H P0 Hᵀ + R) B (above),
 // which is I for the exact optimal gain and then gives P0 - W Wᵀ. Roundoff makes the gain
 // inexact (a nearly determined or nearly dependent direction); P0 - W Wᵀ then lost positive
-// semidefiniteness (tests/stress, before issue 8: eigenvalues down to -16 x the prior's
-// trace), while the error of the Joseph form is of second order in the gain's.
+// semidefiniteness (tests/stress: eigenvalues down to -16 x the prior's trace), while the error of
+// the Joseph form is of second order in the gain's.
 void JosephUpdate(int k, Workspace* ws, Eigen::MatrixXd* covariance) {
   const int s = static_cast<int>(ws->support.size());
   Eigen::Map<Eigen::MatrixXd> C = Scratch(&ws->C, k, k);

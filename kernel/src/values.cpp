@@ -5,6 +5,23 @@
 
 namespace cfuse {
 
+void CheckValuesFit(const std::vector<Block>& blocks, const Values& values) {
+  for (const Block& b : blocks) {
+    CFUSE_CHECK_GE(b.index, 0);
+    switch (b.kind) {
+      case BlockKind::kPose:
+        CFUSE_CHECK_LT(b.index, static_cast<int>(values.poses.size()));
+        break;
+      case BlockKind::kPoint:
+        CFUSE_CHECK_LT(b.index, static_cast<int>(values.points.size()));
+        break;
+      case BlockKind::kSlack:
+        CFUSE_CHECK_LT(b.index, static_cast<int>(values.slacks.size()));
+        break;
+    }
+  }
+}
+
 void RetractBlock(const Block& b, const double* delta, Values* values) {
   switch (b.kind) {
     case BlockKind::kPoint:

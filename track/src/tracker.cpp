@@ -65,6 +65,8 @@ double Tracker::Spread(const GaussianState& before, const GaussianState& after) 
 Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Values& initial,
                  TrackerOptions options)
     : graph_(graph), camera_(camera), options_(std::move(options)) {
+  CheckGraph(graph_);
+  CheckValuesFit(graph_.blocks, initial);
   if (camera_.width <= 0 || camera_.height <= 0) {
     throw InputError(SourceLocation(), "the camera has no image size (width and height)");
   }
@@ -153,10 +155,10 @@ FramePrior Tracker::Prior(const Values& predicted, double scale) const {
 
 TrackedFrame Tracker::Track(const vision::GrayView& image) {
   if (image.width != camera_.width || image.height != camera_.height) {
-    throw InputError(
-        SourceLocation(),
-        "the image is " + std::to_string(image.width) + " x " + std::to_string(image.height) +
-        ", the camera's " + std::to_string(camera_.width) + " x " + std::to_string(camera_.height));
+    throw InputError(SourceLocation(), "the image is " + std::to_string(image.width) + " x " +
+                                           std::to_string(image.height) + ", the camera's " +
+                                           std::to_string(camera_.width) + " x " +
+                                           std::to_string(camera_.height));
   }
   const Values predicted = Predicted();
   TrackedFrame out;

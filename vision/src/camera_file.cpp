@@ -240,7 +240,7 @@ Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& disp
   }
   // cv::FileStorage (OpenCV 4.6) dereferences null on a NUL byte in the text (found by
   // fuzz/camera_fuzz.cpp) and where its parser meets the end of the text inside a construct
-  // (`<?xml rr=`, issue 25), so it only ever sees text whose structure is complete.
+  // (`<?xml rr=`), so it only ever sees text whose structure is complete.
   RequireText(display_name, text, "camera file");
   ScreenFileStorageText(display_name, text);
   try {

@@ -3,7 +3,7 @@
 //
 // cv::FileStorage's parsers are not safe on malformed text. Found so far: a NUL byte (fuzz
 // finding, refused by RequireText), and an XML attribute whose '=' is followed by nothing but
-// white space to the end of the text, e.g. the 9 bytes `<?xml rr=` (issue 25): its XML parser
+// white space to the end of the text, e.g. the 9 bytes `<?xml rr=` (a crash found by a user): its XML parser
 // reads the character after the white space without checking for the end, a null dereference
 // inside cv::FileStorage::Impl::open. Both are the same class of problem: the parser meets the
 // end of the text inside a construct. The screen makes sure it never does, by checking that the

@@ -189,4 +189,9 @@ struct ConstraintGraph {
   std::string Describe(const Constraint& c) const;
 };
 
+// Contract at the entry points of the algorithms (InternalError if broken): the nominal values
+// fit the blocks, each component's block is of its kind, and each constraint's residual takes
+// its blocks.
+void CheckGraph(const ConstraintGraph& graph);
+
 }  // namespace cfuse

@@ -1,5 +1,5 @@
-// Closed-form poses: the starts that keep the linearising filter away from wrong basins
-// (issue 3: "the result must not depend on how the object happens to be oriented").
+// Closed-form poses: the starts that keep the linearising filter away from wrong basins, so
+// that the result does not depend on how the object happens to be oriented.
 //
 //  - AbsoluteOrientation: 3D points, Eigen::umeyama without scale (Umeyama 1991).
 //  - OrthographicPose: image points under an orthographic camera (u = s x + cx, v = s y + cy).

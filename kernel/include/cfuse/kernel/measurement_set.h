@@ -29,4 +29,8 @@ struct MeasurementSet {
   std::vector<MeasuredPoint> points;
 };
 
+// Contract for a set built in code (the readers refuse such files as bad input): image points
+// come with a camera, and every value and covariance is finite (InternalError if not).
+void CheckMeasurementSet(const MeasurementSet& set);
+
 }  // namespace cfuse

@@ -41,6 +41,9 @@ struct Values {
   std::vector<double> slacks;
 };
 
+// Contract: every block's index lies inside the array of its kind (InternalError if not).
+void CheckValuesFit(const std::vector<Block>& blocks, const Values& values);
+
 // One block: values <- values ⊞ delta, delta of TangentDim(b.kind) numbers.
 void RetractBlock(const Block& b, const double* delta, Values* values);
 // The TangentDim(b.kind) numbers δ with to = from ⊞ δ for block b.
