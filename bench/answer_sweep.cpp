@@ -132,7 +132,6 @@ int Run(int argc, char** argv) {
             solution = Solve(g, sim.measurements, options);
           } else {
             InterpretOptions options;
-            options.poses_from_three_projections = &vision::PosesFromThreeProjections;
             options.solve.pose_from_projections = &vision::PoseFromProjections;
             const Interpretation in = Interpret(g, sim.measurements, options);
             if (in.Refusal().empty()) solution = in.solution;  // else refused, as the CLI does

@@ -73,7 +73,6 @@ T Quantile(std::vector<T> v, double q) {
 
 InterpretOptions Config(const std::string& name) {
   InterpretOptions o;
-  o.poses_from_three_projections = &vision::PosesFromThreeProjections;
   o.solve.pose_from_projections = &vision::PoseFromProjections;
   if (name == "paper") {
     o.joint_compatibility = false;

@@ -40,9 +40,9 @@
 
 #include "bench/tracker_ablation.h"
 #include "bench/visp_tracker.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/importers/cao.h"
 #include "cfuse/track/tracker.h"
-#include "cfuse/vision/model_edges.h"
 
 namespace {
 

@@ -246,7 +246,6 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
     InterpretOptions interpret;
     interpret.gate_confidence = options.gate;
     interpret.max_nodes = options.max_nodes;
-    interpret.poses_from_three_projections = &vision::PosesFromThreeProjections;
     interpret.solve.pose_from_projections = &vision::PoseFromProjections;
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(graph, set, interpret);

@@ -15,7 +15,6 @@
 #include "cfuse/interp/schedule.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
-#include "cfuse/track/overlay.h"
 #include "cfuse/track/tracker.h"
 #include "cfuse/vision/pnp.h"
 #include "cfuse/vision/point_picture.h"
@@ -24,6 +23,7 @@
 #include "cli/commands.h"
 #include "cli/image_support.h"
 #include "cli/summary.h"
+#include "cli/track_overlay.h"
 
 namespace cfuse::cli {
 namespace {
@@ -79,12 +79,12 @@ bool DemoTracking(const DemoCommandOptions& options, std::ostream& out) {
                       180 / M_PI);
     }
     if (!target.empty()) {
-      track::OverlayOptions overlay;
+      OverlayOptions overlay;
       overlay.caption = fmt::format("cfuse demo  frame {}  {}  {:.1f} ms", i,
                                     f.verified ? "verified" : "LOST", f.times.Total());
       try {
         WriteFileAtomically((partial / fmt::format("frame_{:05d}.png", i)).string(),
-                            PngBytes(track::DrawOverlay(view, graph, camera, f, overlay)));
+                            PngBytes(DrawOverlay(view, graph, camera, f, overlay)));
       } catch (...) {
         fs::remove_all(partial, ec);  // no half-written directory left behind
         throw;
@@ -159,7 +159,6 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
         graph.components.size(), sim.measurements.points.size() - real);
 
     InterpretOptions interpret;
-    interpret.poses_from_three_projections = &vision::PosesFromThreeProjections;
     interpret.solve.pose_from_projections = &vision::PoseFromProjections;
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(graph, sim.measurements, interpret);

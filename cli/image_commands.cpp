@@ -16,9 +16,9 @@
 #include <sstream>
 
 #include "cfuse/dsl/pose_reader.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/error.h"
-#include "cfuse/vision/model_edges.h"
 #include "cfuse/vision/render.h"
 #include "cfuse/vision/segments.h"
 #include "cfuse/vision/sequence.h"

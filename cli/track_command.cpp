@@ -22,10 +22,10 @@
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/error.h"
-#include "cfuse/track/overlay.h"
 #include "cfuse/track/tracker.h"
 #include "cli/command_support.h"
 #include "cli/image_support.h"
+#include "cli/track_overlay.h"
 
 namespace cfuse::cli {
 namespace {
@@ -366,12 +366,12 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
                              "cannot create the overlay directory");
           }
         }
-        track::OverlayOptions overlay;
+        OverlayOptions overlay;
         overlay.caption = fmt::format("frame {}  {}  {} matches  {:.1f} ms", frame,
                                       f.verified ? "verified" : "LOST", f.matches, f.times.Total());
         WriteFileAtomically(
             (fs::path(options.overlay) / fmt::format("frame_{:05d}.png", frame)).string(),
-            PngBytes(track::DrawOverlay(view, graph, camera, f, overlay)));
+            PngBytes(DrawOverlay(view, graph, camera, f, overlay)));
       }
       progress.Update(frame + 1, Median(ms));
     }

@@ -148,9 +148,8 @@ void Interpreter::Run() {
 
 void Interpreter::Explore() {
   const bool image = image_;
-  if (image && (!set_.camera || set_.camera->model != Camera::Model::kPinhole ||
-                !options_.poses_from_three_projections)) {
-    Search(nullptr);  // no P3P solver for this camera: the unseeded search
+  if (image && (!set_.camera || set_.camera->model != Camera::Model::kPinhole)) {
+    Search(nullptr);  // no P3P for this camera: the unseeded search
     return;
   }
   std::vector<Seed>& seeds = seeds_;

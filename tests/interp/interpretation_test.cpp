@@ -31,7 +31,6 @@ Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion
           const std::optional<Camera>& camera = std::nullopt) {
   Tally t;
   InterpretOptions options;
-  options.poses_from_three_projections = &vision::PosesFromThreeProjections;
   options.solve.pose_from_projections = &vision::PoseFromProjections;
   for (int i = 0; i < trials; ++i) {
     SimulateOptions so;
@@ -399,7 +398,6 @@ TEST_CASE("interpret: an image answer with too few predicted matches is refused"
   so.clutter = 1;
   so.camera = vision::StandardCamera();
   InterpretOptions options;
-  options.poses_from_three_projections = &vision::PosesFromThreeProjections;
   options.solve.pose_from_projections = &vision::PoseFromProjections;
   for (unsigned seed : {113u, 114u, 140u}) {
     INFO("seed " << seed);

@@ -8,13 +8,11 @@
 
 #include <algorithm>
 #include <catch2/catch.hpp>
-#include <opencv2/core.hpp>
 
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/urdf.h"
 #include "cfuse/interp/joint_estimates.h"
-#include "cfuse/track/overlay.h"
 #include "cfuse/vision/sequence.h"
 #include "cfuse/vision/texture.h"
 #include "test_util.h"
@@ -355,43 +353,5 @@ TEST_CASE("tracker: bad input is refused with a reason", "[tracker]") {
   CHECK_THROWS_AS(tracker.Track({small.data(), 320, 240, 320}), InputError);
 }
 
-TEST_CASE("tracker: overlays draw the model yellow when verified and red when lost", "[tracker]") {
-  const ConstraintGraph graph = HingedBox();
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 2, 1);
-  std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
-  Tracker tracker(graph, vision::StandardCamera(), sequence[0].truth);
-  // Pixels of a colour, anti-aliasing allowed for: yellow is strong red and green without
-  // blue, red is strong red alone (BGR).
-  auto count = [](const cv::Mat3b& image, bool yellow) {
-    int n = 0;
-    for (int v = 0; v < image.rows; ++v) {
-      for (int u = 0; u < image.cols; ++u) {
-        const cv::Vec3b& p = image(v, u);
-        const bool strong_red = p[2] > 180 && p[0] < 110;
-        n += strong_red && (yellow ? p[1] > 150 : p[1] < 80);
-      }
-    }
-    return n;
-  };
-  const TrackedFrame good = tracker.Track(View(sequence[0].rendering));
-  REQUIRE(good.verified);
-  const cv::Mat3b drawn =
-      DrawOverlay(View(sequence[0].rendering), graph, vision::StandardCamera(), good);
-  CHECK(drawn.cols == 640);
-  CHECK(drawn.rows == 480);
-  CHECK(count(drawn, true) > 500);
-  CHECK(count(drawn, false) == 0);
-
-  std::fill(sequence[1].rendering.pixels.begin(), sequence[1].rendering.pixels.end(), 90);
-  const TrackedFrame lost = tracker.Track(View(sequence[1].rendering));
-  REQUIRE_FALSE(lost.verified);
-  const cv::Mat3b red =
-      DrawOverlay(View(sequence[1].rendering), graph, vision::StandardCamera(), lost);
-  CHECK(count(red, false) > 500);
-  CHECK(count(red, true) == 0);
-}
-
 }  // namespace
 }  // namespace cfuse::track
-

@@ -6,8 +6,8 @@
 
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/dsl/model_loader.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/kernel/estimator.h"
-#include "cfuse/vision/model_edges.h"
 #include "cfuse/vision/render.h"
 #include "cfuse/vision/sequence.h"
 #include "test_util.h"

@@ -11,7 +11,7 @@
 //    Necker reversal, unavoidable under orthography); the solution whose plane normal points
 //    towards the camera is returned.
 // (Pinhole cameras use OpenCV's SQPnP, and P3P for three points: cfuse/vision/pnp.h,
-// cfuse/vision/p3p.h.)
+// cfuse/geometry/p3p.h.)
 #pragma once
 
 #include <Eigen/Core>

@@ -47,12 +47,12 @@
 // nothing. The plan starts with a seed set from which a pose follows in closed form: a rigid
 // triangle of single points or three features of a rigid component (3D data), four features
 // (image data). Seed hypotheses are the measurement tuples consistent with the seed's
-// geometry: pairwise distances within the gate (3D), or a P3P pose whose fourth point
-// projects within the gate (2D). Each is scored by how many model points, placed rigidly with
-// the nominal geometry at the seed's pose, find a measurement near them (within 5 % of the
-// model's extent, or 3 % of the image diagonal), and the tree is searched below the best
-// first; a later seed only if its support could beat the interpretation found, which it then
-// must (more matches). The whole model starts at the seed's pose.
+// geometry: pairwise distances within the gate (3D), or a P3P pose (cfuse/geometry/p3p.h)
+// whose fourth point projects within the gate (2D). Each is scored by how many model points,
+// placed rigidly with the nominal geometry at the seed's pose, find a measurement near them
+// (within 5 % of the model's extent, or 3 % of the image diagonal), and the tree is searched
+// below the best first; a later seed only if its support could beat the interpretation found,
+// which it then must (more matches). The whole model starts at the seed's pose.
 //
 // Beyond the paper (InterpretOptions, measured in docs/benchmarks.md):
 //  - joint compatibility (Neira & Tardós 2001): a branch is also dropped when its total
@@ -88,12 +88,6 @@
 #include "cfuse/kernel/measurement_set.h"
 
 namespace cfuse {
-
-// Up to four poses camera_from_object from three correspondences (a P3P solver); the CLI wires
-// in OpenCV's (vision/).
-using PosesFromThreeProjections = std::function<std::vector<Rigid3d>(
-    const Camera& camera, const std::array<Eigen::Vector3d, 3>& object_points,
-    const std::array<Eigen::Vector2d, 3>& image_points)>;
 
 // What an interpretation takes from the model alone, kept between interpretations of one model:
 // its fusion plans (one per seed set and data kind) and its rigid triangles. The fusion order
@@ -162,7 +156,6 @@ struct InterpretOptions {
   // constraint breaks): each re-fitted, and listed among the alternatives when accepted. 0:
   // none.
   int max_symmetric_readings = 16;
-  PosesFromThreeProjections poses_from_three_projections;  // image data: seeds
   SolveOptions solve;  // the final estimate from the matches found
 };
 

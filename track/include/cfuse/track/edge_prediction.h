@@ -13,10 +13,10 @@
 #include <vector>
 
 #include "cfuse/constraints/graph.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/factor.h"
 #include "cfuse/kernel/measurements/camera.h"
-#include "cfuse/vision/model_edges.h"
 
 namespace cfuse::track {
 

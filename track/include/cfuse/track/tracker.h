@@ -13,8 +13,8 @@
 //     the acceleration, which grows with the speed); the model's constraints are fused into it,
 //     so that the prior lives on the model's own configurations (7 DOF for the hinged box).
 //  2. Edges. The model's visible pieces at the prediction, hidden lines removed
-//     (cfuse/vision/model_edges.h), each with the variance of where the image shows it, S = A P Aᵀ
-//     (cfuse/track/edge_prediction.h).
+//     (cfuse/geometry/model_edges.h), each with the variance of where the image shows it,
+//     S = A P Aᵀ (cfuse/track/edge_prediction.h).
 //  3. Evidence. Candidate image lines for each edge with Lowe's probabilities
 //     (cfuse/track/edge_evidence.h): by default searched along the predicted edges' normals, only
 //     around the predicted outline; or segments detected in the window the edges can reach.
@@ -44,12 +44,12 @@
 #include <vector>
 
 #include "cfuse/constraints/graph.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/measurements/camera.h"
 #include "cfuse/track/edge_evidence.h"
 #include "cfuse/track/match_search.h"
 #include "cfuse/track/verification.h"
-#include "cfuse/vision/model_edges.h"
 #include "cfuse/vision/segments.h"
 
 namespace cfuse::track {
@@ -120,9 +120,9 @@ struct TrackerOptions {
   MatchSearchOptions search;
   EvidenceOptions evidence_options;
   VerificationOptions verification;
-  // Which edges are matched (cfuse/vision/model_edges.h): those of faces turned at least 80 degrees
-  // from edge-on and 6 px across or more, hidden lines removed. A thin plate's rim or a face
-  // seen nearly edge-on puts its edges within a pixel or two of each other, and a line matched
+  // Which edges are matched (cfuse/geometry/model_edges.h): those of faces turned at least 80
+  // degrees from edge-on and 6 px across or more, hidden lines removed. A thin plate's rim or a
+  // face seen nearly edge-on puts its edges within a pixel or two of each other, and a line matched
   // to the wrong one of such twins bends the estimate.
   vision::Visibility visibility{0.17, 6, true};
   vision::SegmentOptions segments;  // for EdgeEvidence::kSegments

@@ -52,8 +52,8 @@
 #include <vector>
 
 #include "cfuse/constraints/graph.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/kernel/measurements/camera.h"
-#include "cfuse/vision/model_edges.h"
 #include "cfuse/vision/texture.h"
 
 namespace cfuse::vision {

@@ -1,11 +1,10 @@
 // A model's visible edges: back faces culled, wires always shown, clipping to the image and to
-// the space in front of the camera, and the renderer's truth lying on them.
-#include "cfuse/vision/model_edges.h"
+// the space in front of the camera. (The renderer's truth lying on them: vision/render_test.cpp.)
+#include "cfuse/geometry/model_edges.h"
 
 #include <catch2/catch.hpp>
 
 #include "cfuse/dsl/model_loader.h"
-#include "cfuse/vision/render.h"
 #include "test_util.h"
 
 namespace cfuse::vision {
@@ -38,7 +37,7 @@ Values At(const ConstraintGraph& g, const Rigid3d& camera_from_box) {
   return v;
 }
 
-TEST_CASE("model edges: faces' sides and wires, each once", "[vision]") {
+TEST_CASE("model edges: faces' sides and wires, each once", "[geometry]") {
   const ConstraintGraph g = Box();
   const std::vector<ModelEdge> edges = ModelEdges(g);
   // The wire, then the 12 sides of the 6 faces (each shared by two faces).
@@ -48,7 +47,7 @@ TEST_CASE("model edges: faces' sides and wires, each once", "[vision]") {
   for (size_t i = 1; i < edges.size(); ++i) CHECK(edges[i].faces.size() == 2);
 }
 
-TEST_CASE("model edges: a view onto a corner shows three faces and nine edges", "[vision]") {
+TEST_CASE("model edges: a view onto a corner shows three faces and nine edges", "[geometry]") {
   const ConstraintGraph g = Box();
   const Camera camera = testing::Pinhole();
   // The box's centre 1.5 m in front of the camera, turned so that the corner c000 faces it:
@@ -76,7 +75,7 @@ TEST_CASE("model edges: a view onto a corner shows three faces and nine edges", 
   }
 }
 
-TEST_CASE("model edges: clipped to the image and to the space before the camera", "[vision]") {
+TEST_CASE("model edges: clipped to the image and to the space before the camera", "[geometry]") {
   const ConstraintGraph g = Box();
   const Camera camera = testing::Pinhole();
   // Seen from 0.25 m, far larger than the image: every visible edge ends inside the image.
@@ -102,7 +101,7 @@ TEST_CASE("model edges: clipped to the image and to the space before the camera"
   CHECK(VisibleEdges(g, ModelEdges(g), behind, camera).empty());
 }
 
-TEST_CASE("model edges: the rectangle clip", "[vision]") {
+TEST_CASE("model edges: the rectangle clip", "[geometry]") {
   const Eigen::Vector2d lo(0, 0), hi(10, 10);
   Eigen::Vector2d a(-5, 5), b(15, 5);
   REQUIRE(ClipToRectangle(lo, hi, &a, &b));
@@ -115,49 +114,6 @@ TEST_CASE("model edges: the rectangle clip", "[vision]") {
   b = {4, 5};
   REQUIRE(ClipToRectangle(lo, hi, &a, &b));
   CHECK((a - Eigen::Vector2d(2, 3)).norm() < 1e-12);
-}
-
-TEST_CASE("render: the truth lies on the visible edges, hidden parts removed", "[vision]") {
-  // The hinged box with its lid open: the truth's segments lie on the projected visible edges
-  // and add up to no more than them (hidden and contrast-less stretches are left out).
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  Camera camera = testing::Pinhole();
-  camera.fx = camera.fy = 1000;
-  const Eigen::Matrix3d R = (Eigen::AngleAxisd(2.3, Eigen::Vector3d::UnitX()) *
-                             Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ()))
-                                .toRotationMatrix();
-  Values v = g.nominal;
-  for (Rigid3d& pose : v.poses) {
-    pose =
-        Rigid3d(R, Eigen::Vector3d(-0.05, 0.1, 1.8) - R * Eigen::Vector3d(0.15, 0.12, 0.1)) * pose;
-  }
-  RenderOptions ro;
-  ro.clutter_lines = ro.clutter_blobs = 0;
-  const Rendering r = Render(g, v, camera, ro);
-  const std::vector<ModelEdge> edges = ModelEdges(g);
-  const std::vector<ProjectedEdge> visible = VisibleEdges(g, edges, v, camera);
-  REQUIRE(!r.truth.empty());
-  double truth_length = 0, visible_length = 0;
-  for (const TruthSegment& t : r.truth) {
-    truth_length += (t.b - t.a).norm();
-    const auto on = std::find_if(visible.begin(), visible.end(),
-                                 [&](const ProjectedEdge& e) { return e.edge == t.edge; });
-    REQUIRE(on != visible.end());
-    const Eigen::Vector2d d = (on->b - on->a).normalized();
-    for (const Eigen::Vector2d& p : {t.a, t.b}) {
-      CHECK(std::abs(d.x() * (p - on->a).y() - d.y() * (p - on->a).x()) < 1e-6);
-    }
-  }
-  for (const ProjectedEdge& e : visible) visible_length += (e.b - e.a).norm();
-  CHECK(truth_length <= visible_length + 1e-6);
-  CHECK(r.pixels.size() == static_cast<size_t>(640 * 480));
-  // A camera without a size, or with distortion, is refused.
-  Camera sizeless = camera;
-  sizeless.width = 0;
-  CHECK_THROWS_AS(Render(g, v, sizeless, ro), InputError);
-  Camera distorted = camera;
-  distorted.distortion[0] = -0.1;
-  CHECK_THROWS_AS(Render(g, v, distorted, ro), InputError);
 }
 
 }  // namespace

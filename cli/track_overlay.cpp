@@ -1,10 +1,10 @@
-#include "cfuse/track/overlay.h"
+#include "cli/track_overlay.h"
 
 #include <opencv2/imgproc.hpp>
 
-#include "cfuse/vision/model_edges.h"
+#include "cfuse/geometry/model_edges.h"
 
-namespace cfuse::track {
+namespace cfuse::cli {
 namespace {
 
 // fillPoly and line take fixed-point vertices: 1/16 px.
@@ -19,7 +19,7 @@ bool Drawable(const Eigen::Vector2d& p) { return p.allFinite() && p.cwiseAbs().m
 }  // namespace
 
 cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& graph,
-                      const Camera& camera, const TrackedFrame& frame,
+                      const Camera& camera, const track::TrackedFrame& frame,
                       const OverlayOptions& options) {
   const cv::Mat1b grey(image.height, image.width, const_cast<std::uint8_t*>(image.data),
                        static_cast<size_t>(image.step));
@@ -29,7 +29,7 @@ cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& grap
   if (options.regions) {
     // Each predicted edge's band of ±2σ across it, blended in at 35 %.
     cv::Mat3b shade = out.clone();
-    for (const PredictedEdge& e : frame.predicted) {
+    for (const track::PredictedEdge& e : frame.predicted) {
       const Eigen::Vector2d d = e.b - e.a;
       if (d.norm() == 0 || !Drawable(e.a) || !Drawable(e.b)) continue;
       const Eigen::Vector2d n = Eigen::Vector2d(-d.y(), d.x()).normalized();
@@ -42,7 +42,7 @@ cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& grap
     cv::addWeighted(shade, 0.35, out, 0.65, 0, out);
   }
   if (options.segments) {
-    for (const PredictedEdge& e : frame.predicted) {
+    for (const track::PredictedEdge& e : frame.predicted) {
       if (!e.matched) continue;
       cv::line(out, Fixed(e.segment_a), Fixed(e.segment_b), cv::Scalar(0, 200, 0), 1, cv::LINE_AA,
                kShift);
@@ -64,4 +64,4 @@ cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& grap
   return out;
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse::cli

@@ -7,12 +7,14 @@
 // Why not OpenCV's solveP3P: the interpretation's image seeds make up to 2e5 calls a trial,
 // and OpenCV's per-call matrix allocations took most of its time; its poses are also often
 // 1e-3 rad off, since it does not polish its roots (tests/interp/closed_form_pose_test.cpp).
-// No OpenCV here.
+// No OpenCV here: the interpretation (interp/) calls it directly for its image seeds.
 #pragma once
 
 #include <Eigen/Core>
 #include <array>
+#include <vector>
 
+#include "cfuse/kernel/measurements/camera.h"
 #include "cfuse/kernel/rigid3.h"
 
 namespace cfuse::vision {
@@ -23,5 +25,12 @@ namespace cfuse::vision {
 int ThreePointPoses(const std::array<Eigen::Vector3d, 3>& bearings,
                     const std::array<Eigen::Vector3d, 3>& object_points,
                     std::array<Rigid3d, 4>* poses);
+
+// The same from three pixels of a pinhole camera, their bearings undistorted when the camera has
+// distortion (undistort.h): the seed hypotheses of the interpretation tree for image data.
+// Empty for an orthographic camera or a degenerate triple.
+std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
+                                               const std::array<Eigen::Vector3d, 3>& object_points,
+                                               const std::array<Eigen::Vector2d, 3>& image_points);
 
 }  // namespace cfuse::vision

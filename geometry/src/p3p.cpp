@@ -1,10 +1,12 @@
-#include "cfuse/vision/p3p.h"
+#include "cfuse/geometry/p3p.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
 #include <Eigen/LU>
 #include <algorithm>
 #include <cmath>
+
+#include "cfuse/geometry/undistort.h"
 
 namespace cfuse::vision {
 namespace {
@@ -154,6 +156,29 @@ int ThreePointPoses(const std::array<Eigen::Vector3d, 3>& bearings,
     }
   }
   return count;
+}
+
+std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
+                                               const std::array<Eigen::Vector3d, 3>& object_points,
+                                               const std::array<Eigen::Vector2d, 3>& image_points) {
+  std::vector<Rigid3d> poses;
+  if (camera.model != Camera::Model::kPinhole) return poses;
+  std::array<Eigen::Vector2d, 3> xy;
+  if (std::all_of(camera.distortion.begin(), camera.distortion.end(),
+                  [](double d) { return d == 0; })) {
+    for (int i = 0; i < 3; ++i) {
+      xy[i] = {(image_points[i].x() - camera.cx) / camera.fx,
+               (image_points[i].y() - camera.cy) / camera.fy};
+    }
+  } else {
+    for (int i = 0; i < 3; ++i) xy[i] = UndistortPoint(camera, image_points[i]);
+  }
+  std::array<Eigen::Vector3d, 3> bearings;
+  for (int i = 0; i < 3; ++i) bearings[i] = Eigen::Vector3d(xy[i].x(), xy[i].y(), 1).normalized();
+  std::array<Rigid3d, 4> found;
+  const int n = ThreePointPoses(bearings, object_points, &found);
+  poses.assign(found.begin(), found.begin() + n);
+  return poses;
 }
 
 }  // namespace cfuse::vision

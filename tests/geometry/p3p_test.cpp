@@ -1,12 +1,10 @@
-// P3P (cfuse/vision/p3p.h): the true pose among the solutions, every solution exact, and OpenCV's
+// P3P (cfuse/geometry/p3p.h): the true pose among the solutions, every solution exact, and OpenCV's
 // solveP3P as a reference for completeness.
-#include "cfuse/vision/p3p.h"
+#include "cfuse/geometry/p3p.h"
 
 #include <catch2/catch.hpp>
 #include <opencv2/calib3d.hpp>
 #include <random>
-
-#include "cfuse/vision/pnp.h"
 
 namespace cfuse::vision {
 namespace {
@@ -40,7 +38,7 @@ double PoseDistance(const Rigid3d& a, const Rigid3d& b) {
   return a.rotation.angularDistance(b.rotation) + (a.translation - b.translation).norm();
 }
 
-TEST_CASE("p3p: finds the true pose, and every pose it returns fits", "[vision]") {
+TEST_CASE("p3p: finds the true pose, and every pose it returns fits", "[geometry]") {
   std::mt19937 rng(11);
   int found_truth = 0;
   const int trials = 5000;
@@ -71,7 +69,7 @@ TEST_CASE("p3p: finds the true pose, and every pose it returns fits", "[vision]"
 // OpenCV's solver (Gao et al.) is the reference for completeness; its poses are often off by
 // 1e-3 rad or more (it does not polish its roots), so only those that fit their bearings are
 // compared.
-TEST_CASE("p3p: returns every pose OpenCV's solveP3P returns that fits", "[vision]") {
+TEST_CASE("p3p: returns every pose OpenCV's solveP3P returns that fits", "[geometry]") {
   std::mt19937 rng(12);
   int checked = 0, matched = 0;
   for (int trial = 0; trial < 1000; ++trial) {
@@ -111,7 +109,7 @@ TEST_CASE("p3p: returns every pose OpenCV's solveP3P returns that fits", "[visio
   CHECK(matched == checked);
 }
 
-TEST_CASE("p3p: refuses collinear and coincident points", "[vision]") {
+TEST_CASE("p3p: refuses collinear and coincident points", "[geometry]") {
   std::array<Rigid3d, 4> poses;
   const std::array<Eigen::Vector3d, 3> bearings = {Eigen::Vector3d(0, 0, 1),
                                                    Eigen::Vector3d(0.1, 0, 1).normalized(),
@@ -123,7 +121,7 @@ TEST_CASE("p3p: refuses collinear and coincident points", "[vision]") {
   CHECK(ThreePointPoses(same, {Eigen::Vector3d(0, 0, 0), {1, 0, 0}, {0, 1, 0}}, &poses) == 0);
 }
 
-TEST_CASE("p3p: poses from three pixels, with and without lens distortion", "[vision]") {
+TEST_CASE("p3p: poses from three pixels, with and without lens distortion", "[geometry]") {
   std::mt19937 rng(13);
   Camera camera;
   camera.fx = 800;

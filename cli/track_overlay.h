@@ -1,6 +1,8 @@
 // A tracked frame drawn as in Lowe's figures 3-7: the image in grey, the predicted edges' 2σ
 // regions shaded (where the search looked), the model at the frame's estimate in yellow when
 // the frame is verified and red when it is lost, and the matched image segments in green.
+// Drawn here, with OpenCV, for `cfuse track --overlay` and the demo: the tracker (track/) needs
+// no OpenCV and names none of its types.
 #pragma once
 
 #include <opencv2/core.hpp>
@@ -8,7 +10,7 @@
 
 #include "cfuse/track/tracker.h"
 
-namespace cfuse::track {
+namespace cfuse::cli {
 
 struct OverlayOptions {
   bool regions = true;   // the 2σ regions of the predicted edges
@@ -18,7 +20,7 @@ struct OverlayOptions {
 
 // The overlay as a BGR image of the frame's size.
 cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& graph,
-                      const Camera& camera, const TrackedFrame& frame,
+                      const Camera& camera, const track::TrackedFrame& frame,
                       const OverlayOptions& options = {});
 
-}  // namespace cfuse::track
+}  // namespace cfuse::cli

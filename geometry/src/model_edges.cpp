@@ -1,4 +1,4 @@
-#include "cfuse/vision/model_edges.h"
+#include "cfuse/geometry/model_edges.h"
 
 #include <fmt/format.h>
 
