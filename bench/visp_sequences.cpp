@@ -213,13 +213,13 @@ Values Posed(const ConstraintGraph& graph, const Rigid3d& camera_from_object) {
 }
 
 // The mean distance (px) of the model's visible edges at `a` from the same edges' lines at `b`.
-double EdgeDistance(const ConstraintGraph& graph, const std::vector<vision::ModelEdge>& edges,
+double EdgeDistance(const ConstraintGraph& graph, const std::vector<geometry::ModelEdge>& edges,
                     const Camera& camera, const Rigid3d& a, const Rigid3d& b) {
-  const vision::Visibility visible{0, 0, true};
+  const geometry::Visibility visible{0, 0, true};
   const Values va = Posed(graph, a), vb = Posed(graph, b);
   double sum = 0;
   int n = 0;
-  for (const vision::ProjectedEdge& e : vision::VisibleEdges(graph, edges, va, camera, visible)) {
+  for (const geometry::ProjectedEdge& e : geometry::VisibleEdges(graph, edges, va, camera, visible)) {
     const Component& c = graph.components[edges[e.edge].component];
     const Rigid3d& pa = va.poses[graph.blocks[c.block].index];
     const Rigid3d& pb = vb.poses[graph.blocks[c.block].index];
@@ -345,7 +345,7 @@ int main(int argc, char** argv) {
     const Sequence s = Load(name);
     const std::vector<cv::Mat> frames = Frames(s);
     const ConstraintGraph graph = importers::ImportCao(s.cao);
-    const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
+    const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
     // The reference: the truth, or ViSP's own track at step 1.
     std::vector<Rigid3d> reference = s.truth;
     std::vector<int> all(s.count);

@@ -181,14 +181,14 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
                        "--overlay draws on an image: give --image");
     }
     const Values values = PosedModel(graph, options.pose);
-    const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
-    const std::vector<vision::ProjectedEdge> visible =
-        vision::VisibleEdges(graph, edges, values, camera);
+    const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
+    const std::vector<geometry::ProjectedEdge> visible =
+        geometry::VisibleEdges(graph, edges, values, camera);
     nlohmann::json json = {{"width", camera.width},
                            {"height", camera.height},
                            {"edges", nlohmann::json::array()},
                            {"names", nlohmann::json::array()}};
-    for (const vision::ProjectedEdge& e : visible) {
+    for (const geometry::ProjectedEdge& e : visible) {
       json["edges"].push_back(SegmentJson(e.a.x(), e.a.y(), e.b.x(), e.b.y()));
       json["names"].push_back(graph.components[edges[e.edge].component].name + "." +
                               edges[e.edge].name);
@@ -203,7 +203,7 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
       }
       cv::Mat picture;
       cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
-      for (const vision::ProjectedEdge& e : visible) {
+      for (const geometry::ProjectedEdge& e : visible) {
         cv::line(picture, cv::Point2d(e.a.x(), e.a.y()), cv::Point2d(e.b.x(), e.b.y()),
                  cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
       }
@@ -351,7 +351,7 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
     ro.realistic.look_seed = options.seed;
     const vision::Rendering r =
         AtFile(options.camera, [&] { return vision::Render(graph, values, camera, ro); });
-    const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
+    const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
     nlohmann::json truth = {{"width", r.width},
                             {"height", r.height},
                             {"edges", nlohmann::json::array()},

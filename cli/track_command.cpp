@@ -275,7 +275,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     Camera camera = LoadAnyCamera(options.camera);
     const bool camera_sized = camera.width > 0 && camera.height > 0;
     const Values initial = PosedModel(graph, options.init);
-    if (vision::ModelEdges(graph).empty()) {
+    if (geometry::ModelEdges(graph).empty()) {
       throw InputError(SourceLocation(options.model),
                        fmt::format("model '{}' has no edges to track (give its components "
                                    "edges, or faces whose sides become edges)",

@@ -49,9 +49,9 @@ cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& grap
     }
   }
   const cv::Scalar colour = frame.verified ? cv::Scalar(0, 230, 255) : cv::Scalar(0, 0, 255);
-  const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
-  for (const vision::ProjectedEdge& e :
-       vision::VisibleEdges(graph, edges, frame.estimate.mean, camera)) {
+  const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
+  for (const geometry::ProjectedEdge& e :
+       geometry::VisibleEdges(graph, edges, frame.estimate.mean, camera)) {
     if (!Drawable(e.a) || !Drawable(e.b)) continue;
     cv::line(out, Fixed(e.a), Fixed(e.b), colour, 1, cv::LINE_AA, kShift);
   }

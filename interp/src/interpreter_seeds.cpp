@@ -189,7 +189,7 @@ void Interpreter::ImageSeeds(const std::vector<ModelPointRef>& s, int context,
         const std::array<Eigen::Vector2d, 3> image = {
             set_.points[index2_[i]].uv, set_.points[index2_[j]].uv, set_.points[index2_[l]].uv};
         for (const Rigid3d& camera_from_comp :
-             vision::PosesFromThreeProjections(camera, object, image)) {
+             geometry::PosesFromThreeProjections(camera, object, image)) {
           const Eigen::Vector3d q = camera_from_comp * fourth;
           if (!(q.z() > 0)) continue;
           const Eigen::Vector2d uv = camera.Project<double>(q);

@@ -7,7 +7,7 @@
 #include "cfuse/dsl/model_loader.h"
 #include "test_util.h"
 
-namespace cfuse::vision {
+namespace cfuse::geometry {
 namespace {
 
 // The hinged box's box alone: a 300 x 250 x 200 mm box with its 12 edges and 6 faces.
@@ -117,4 +117,4 @@ TEST_CASE("model edges: the rectangle clip", "[geometry]") {
 }
 
 }  // namespace
-}  // namespace cfuse::vision
+}  // namespace cfuse::geometry

@@ -27,15 +27,15 @@ Values BoxWithLid(const ConstraintGraph& graph, double hinge) {
 
 std::vector<EdgeModel> Predicted(const ConstraintGraph& graph, const Values& values) {
   const GaussianState state = MakePrior(graph.blocks, values, PriorScale{1e-4, 1e-4, 1e-4});
-  return PredictEdges(graph, vision::ModelEdges(graph), state, vision::StandardCamera(),
-                      vision::Visibility{0.17, 6, true}, 0.5, 12);
+  return PredictEdges(graph, geometry::ModelEdges(graph), state, vision::StandardCamera(),
+                      geometry::Visibility{0.17, 6, true}, 0.5, 12);
 }
 
 std::vector<ModelLine> Lines(const ConstraintGraph& graph, const Values& values) {
-  const std::vector<vision::ModelEdge> edges = vision::ModelEdges(graph);
+  const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
   std::vector<ModelLine> out;
-  for (const vision::ProjectedEdge& p :
-       vision::VisibleEdges(graph, edges, values, vision::StandardCamera())) {
+  for (const geometry::ProjectedEdge& p :
+       geometry::VisibleEdges(graph, edges, values, vision::StandardCamera())) {
     out.push_back({graph.components[edges[p.edge].component].block, p.a, p.b});
   }
   return out;

@@ -19,6 +19,12 @@
 namespace cfuse::vision {
 namespace {
 
+using geometry::FrontFacing;
+using geometry::ModelEdge;
+using geometry::ModelEdges;
+using geometry::ProjectedEdge;
+using geometry::VisibleEdges;
+
 namespace fs = std::filesystem;
 
 // Whether two renderings have the same pixels (said without printing 307200 of them).

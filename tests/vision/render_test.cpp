@@ -11,6 +11,11 @@
 namespace cfuse::vision {
 namespace {
 
+using geometry::ModelEdge;
+using geometry::ModelEdges;
+using geometry::ProjectedEdge;
+using geometry::VisibleEdges;
+
 TEST_CASE("render: the truth lies on the visible edges, hidden parts removed", "[vision]") {
   // The hinged box with its lid open: the truth's segments lie on the projected visible edges
   // and add up to no more than them (hidden and contrast-less stretches are left out).

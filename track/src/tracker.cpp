@@ -70,7 +70,7 @@ Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Value
   if (camera_.width <= 0 || camera_.height <= 0) {
     throw InputError(SourceLocation(), "the camera has no image size (width and height)");
   }
-  edges_ = vision::ModelEdges(graph_);
+  edges_ = geometry::ModelEdges(graph_);
   appearance_ = EdgeAppearance(static_cast<int>(edges_.size()));
   for (const Constraint& c : graph_.constraints)
     constraints_.push_back({c.residual, c.blocks, {}, c.name});
@@ -400,7 +400,7 @@ std::vector<EdgeCandidate> Tracker::Candidates(const vision::GrayView& image,
 std::vector<ModelLine> Tracker::ModelLines(const Values& values) const {
   std::vector<ModelLine> out;
   if (graph_.components.size() < 2) return out;
-  for (const vision::ProjectedEdge& p : vision::VisibleEdges(graph_, edges_, values, camera_)) {
+  for (const geometry::ProjectedEdge& p : geometry::VisibleEdges(graph_, edges_, values, camera_)) {
     out.push_back({graph_.components[edges_[p.edge].component].block, p.a, p.b});
   }
   return out;

@@ -7,6 +7,12 @@
 
 namespace cfuse::vision::internal {
 
+using geometry::FrontFacing;
+using geometry::ModelEdge;
+using geometry::ModelEdges;
+using geometry::ProjectedEdge;
+using geometry::VisibleEdges;
+
 void CheckRenderable(const Camera& camera) {
   if (camera.width <= 0 || camera.height <= 0) {
     throw InputError(SourceLocation(), "the camera has no image size (width and height)");

@@ -13,9 +13,9 @@
 
 #include "cfuse/kernel/measurements/camera.h"
 
-namespace cfuse::vision {
+namespace cfuse::geometry {
 
 // The normalised image coordinates of `pixel` (finite) for a pinhole camera.
 Eigen::Vector2d UndistortPoint(const Camera& camera, const Eigen::Vector2d& pixel);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse::geometry

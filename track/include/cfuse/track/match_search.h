@@ -37,7 +37,7 @@ struct MatchSearchOptions {
 
 // A model edge's match: the measured image line.
 struct MatchedLine {
-  int edge = -1;  // index into vision::ModelEdges()
+  int edge = -1;  // index into geometry::ModelEdges()
   Eigen::Vector2d a, b;
 };
 

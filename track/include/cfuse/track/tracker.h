@@ -124,7 +124,7 @@ struct TrackerOptions {
   // degrees from edge-on and 6 px across or more, hidden lines removed. A thin plate's rim or a
   // face seen nearly edge-on puts its edges within a pixel or two of each other, and a line matched
   // to the wrong one of such twins bends the estimate.
-  vision::Visibility visibility{0.17, 6, true};
+  geometry::Visibility visibility{0.17, 6, true};
   vision::SegmentOptions segments;  // for EdgeEvidence::kSegments
 };
 
@@ -146,7 +146,7 @@ struct FrameTimes {
 // A predicted edge, for overlays: its ends and the standard deviation of where the image shows
 // it, across the edge, at each end (px).
 struct PredictedEdge {
-  int edge = -1;  // index into vision::ModelEdges()
+  int edge = -1;  // index into geometry::ModelEdges()
   Eigen::Vector2d a, b;
   double sigma_a = 0, sigma_b = 0;
   bool matched = false;
@@ -253,7 +253,7 @@ class Tracker {
   const ConstraintGraph& graph_;
   Camera camera_;
   TrackerOptions options_;
-  std::vector<vision::ModelEdge> edges_;
+  std::vector<geometry::ModelEdge> edges_;
   std::vector<Factor> constraints_;
   std::vector<double> radius_;  // per block: its component's points' RMS distance from its origin
   int dof_ = 6;

@@ -119,7 +119,7 @@ struct RenderOptions {
 };
 
 struct TruthSegment {
-  int edge = -1;  // index into ModelEdges()
+  int edge = -1;  // index into geometry::ModelEdges()
   Eigen::Vector2d a, b;
 };
 
