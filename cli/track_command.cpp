@@ -260,6 +260,50 @@ std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms,
   return out + "\n";
 }
 
+// What a track did, frame by frame, for its report.
+struct TrackTally {
+  int frames = 0, verified = 0;
+  std::vector<int> lost, unreadable;
+  // The lost frames' refusals by kind: how many, and the first one's words.
+  std::map<int, std::pair<int, std::string>> why_lost;
+  std::vector<double> ms;
+  track::FrameTimes sum;
+};
+
+// The summary after the track (on stderr when the track itself went to stdout), and the exit
+// status: 2 when frames could not be read, 1 when none was verified.
+int ReportTrack(const TrackCommandOptions& options, const ConstraintGraph& graph,
+                const TrackTally& t, std::ostream& out, std::ostream& err) {
+  std::ostream& report = options.output.empty() ? err : out;
+  const double n = std::max(1, t.frames);
+  report << fmt::format("track: '{}', {} frames: {} verified ({:.1f} %){}\n", graph.name, t.frames,
+                        t.verified, 100.0 * t.verified / n,
+                        t.lost.empty() ? "" : ", lost: " + Ranges(t.lost));
+  if (!t.why_lost.empty()) {
+    // The reason most lost frames gave (a refusal says why).
+    const auto most = std::max_element(
+        t.why_lost.begin(), t.why_lost.end(),
+        [](const auto& a, const auto& b) { return a.second.first < b.second.first; });
+    report << fmt::format("lost, most often ({} of {}): {}\n", most->second.first, t.lost.size(),
+                          most->second.second);
+  }
+  if (!t.ms.empty()) {
+    report << fmt::format(
+        "time per frame: median {:.2f} ms, worst {:.2f} ms (mean: edges {:.2f}, prediction "
+        "{:.2f}, search {:.2f}, estimation {:.2f}, verification {:.2f})\n",
+        Median(t.ms), *std::max_element(t.ms.begin(), t.ms.end()), t.sum.segments / n,
+        t.sum.prediction / n, t.sum.search / n, t.sum.estimation / n, t.sum.verification / n);
+  }
+  if (!options.output.empty()) report << fmt::format("track -> {}\n", options.output);
+  if (!options.overlay.empty()) report << fmt::format("overlays -> {}/\n", options.overlay);
+  if (!t.unreadable.empty()) {
+    err << fmt::format("cfuse track: {} frame(s) could not be read ({}), see above\n",
+                       t.unreadable.size(), Ranges(t.unreadable));
+    return 2;
+  }
+  return t.verified > 0 ? 0 : 1;
+}
+
 int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     // Refused before any frame is tracked, so that a bad track path leaves no overlays behind.
@@ -290,13 +334,12 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     std::optional<track::Tracker> tracker;
     int skipped_before_first = 0;
     std::string csv = TrackCsvHeader(graph, true);
-    std::vector<double> ms;
-    std::vector<int> lost, unreadable;
-    // The lost frames' refusals by kind: how many, and the first one's words.
-    std::map<int, std::pair<int, std::string>> why_lost;
-    std::vector<std::string> unreadable_why;
-    track::FrameTimes sum;
-    int frames = 0, verified = 0;
+    TrackTally tally;
+    std::vector<double>& ms = tally.ms;
+    std::vector<int>&lost = tally.lost, &unreadable = tally.unreadable;
+    auto& why_lost = tally.why_lost;
+    track::FrameTimes& sum = tally.sum;
+    int &frames = tally.frames, &verified = tally.verified;
     ProgressBar progress(err, options.progress, source.expected());
     for (int frame = 0;; ++frame) {
       cv::Mat image;
@@ -389,34 +432,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     } else {
       WriteFileAtomically(options.output, csv);
     }
-    std::ostream& report = options.output.empty() ? err : out;
-    const double n = std::max(1, frames);
-    report << fmt::format("track: '{}', {} frames: {} verified ({:.1f} %){}\n", graph.name, frames,
-                          verified, 100.0 * verified / n,
-                          lost.empty() ? "" : ", lost: " + Ranges(lost));
-    if (!why_lost.empty()) {
-      // The reason most lost frames gave (a refusal says why).
-      const auto most = std::max_element(
-          why_lost.begin(), why_lost.end(),
-          [](const auto& a, const auto& b) { return a.second.first < b.second.first; });
-      report << fmt::format("lost, most often ({} of {}): {}\n", most->second.first, lost.size(),
-                            most->second.second);
-    }
-    if (!ms.empty()) {
-      report << fmt::format(
-          "time per frame: median {:.2f} ms, worst {:.2f} ms (mean: edges {:.2f}, prediction "
-          "{:.2f}, search {:.2f}, estimation {:.2f}, verification {:.2f})\n",
-          Median(ms), *std::max_element(ms.begin(), ms.end()), sum.segments / n, sum.prediction / n,
-          sum.search / n, sum.estimation / n, sum.verification / n);
-    }
-    if (!options.output.empty()) report << fmt::format("track -> {}\n", options.output);
-    if (!options.overlay.empty()) report << fmt::format("overlays -> {}/\n", options.overlay);
-    if (!unreadable.empty()) {
-      err << fmt::format("cfuse track: {} frame(s) could not be read ({}), see above\n",
-                         unreadable.size(), Ranges(unreadable));
-      return 2;
-    }
-    return verified > 0 ? 0 : 1;
+    return ReportTrack(options, graph, tally, out, err);
   });
 }
 
