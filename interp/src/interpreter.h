@@ -151,14 +151,19 @@ class Interpreter {
   // `rounds` times; returns the estimate of the final labelling and the number of changes.
   Solution Refine(std::vector<int>* assignment, int rounds, int* changes) const;
 
+  // Refine's proposals, each handed to `try_labelling`, which keeps one that scores higher:
+  // two matched points close together in the image, each inside the other's gate, swapped.
   template <typename Try>
   bool SwapClosePairs(Try& try_labelling, const GaussianState& state,
                       const std::vector<int>& assignment) const;
 
+  // 3D data: a matched measurement nearer an unmatched point of its component than twice the
+  // two points' distance, moved to that point (the likeliest kMaxShifts first).
   template <typename Try>
   bool ShiftToUnmatched(Try& try_labelling, const GaussianState& state,
                         const std::vector<int>& assignment) const;
 
+  // A match moved to an unmatched point whose gate holds it.
   template <typename Try>
   bool MoveToUnmatched(Try& try_labelling, const GaussianState& state,
                        const std::vector<int>& assignment) const;
