@@ -35,21 +35,10 @@ void Turn(const Eigen::Quaterniond& by, Rigid3d* motion) {
   motion->rotation = (motion->rotation * by).normalized();
 }
 
-// Rotation about the axis by the variable: revolute (limited) and continuous.
-class RevoluteModel : public JointModel {
+// A joint whose state is its scalar variable q: its one parameter steps q itself.
+class VariableJointModel : public JointModel {
  public:
-  const std::vector<Parameter>& Parameters() const override {
-    static const std::vector<Parameter> kParameters = {{"", true}};
-    return kParameters;
-  }
   bool HasVariable() const override { return true; }
-  Rigid3d Motion(const Eigen::Vector3d& axis, double q) const override {
-    return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
-  }
-  void Twists(const Eigen::Vector3d& axis, const Rigid3d& A, const Rigid3d& /*B*/,
-              Eigen::MatrixXd* T, int first) const override {
-    RotationAbout(first, A.RotationMatrix() * axis, A.translation, T);
-  }
   void Retract(const Eigen::Vector3d& /*axis*/, const double* d, double* q,
                Rigid3d* /*motion*/) const override {
     *q += d[0];
@@ -57,6 +46,22 @@ class RevoluteModel : public JointModel {
   void Difference(const Eigen::Vector3d& /*axis*/, double q_from, double q_to,
                   const Rigid3d& /*from*/, const Rigid3d& /*to*/, double* d) const override {
     d[0] = q_to - q_from;
+  }
+};
+
+// Rotation about the axis by the variable: revolute (limited) and continuous.
+class RevoluteModel : public VariableJointModel {
+ public:
+  const std::vector<Parameter>& Parameters() const override {
+    static const std::vector<Parameter> kParameters = {{"", true}};
+    return kParameters;
+  }
+  Rigid3d Motion(const Eigen::Vector3d& axis, double q) const override {
+    return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
+  }
+  void Twists(const Eigen::Vector3d& axis, const Rigid3d& A, const Rigid3d& /*B*/,
+              Eigen::MatrixXd* T, int first) const override {
+    RotationAbout(first, A.RotationMatrix() * axis, A.translation, T);
   }
   bool NearConfiguration(const Eigen::Vector3d& axis,
                          const Eigen::Quaterniond& relative) const override {
@@ -69,27 +74,18 @@ class RevoluteModel : public JointModel {
 };
 
 // Translation along the axis by the variable.
-class PrismaticModel : public JointModel {
+class PrismaticModel : public VariableJointModel {
  public:
   const std::vector<Parameter>& Parameters() const override {
     static const std::vector<Parameter> kParameters = {{"", false}};
     return kParameters;
   }
-  bool HasVariable() const override { return true; }
   Rigid3d Motion(const Eigen::Vector3d& axis, double q) const override {
     return Rigid3d(Eigen::Quaterniond::Identity(), axis * q);
   }
   void Twists(const Eigen::Vector3d& axis, const Rigid3d& A, const Rigid3d& /*B*/,
               Eigen::MatrixXd* T, int first) const override {
     Translation(first, A.RotationMatrix() * axis, T);
-  }
-  void Retract(const Eigen::Vector3d& /*axis*/, const double* d, double* q,
-               Rigid3d* /*motion*/) const override {
-    *q += d[0];
-  }
-  void Difference(const Eigen::Vector3d& /*axis*/, double q_from, double q_to,
-                  const Rigid3d& /*from*/, const Rigid3d& /*to*/, double* d) const override {
-    d[0] = q_to - q_from;
   }
   bool NearConfiguration(const Eigen::Vector3d& /*axis*/,
                          const Eigen::Quaterniond& relative) const override {
