@@ -1,10 +1,10 @@
 #include "cfuse/constraints/dof.h"
 
 #include <Eigen/QR>
-#include <Eigen/SVD>
 #include <algorithm>
 
 #include "cfuse/constraints/evaluate.h"
+#include "cfuse/kernel/svd.h"
 
 namespace cfuse {
 
@@ -22,7 +22,7 @@ int RankOfSingularValues(const Eigen::VectorXd& s) {
 
 int NumericalRank(const Eigen::MatrixXd& A) {
   if (A.size() == 0) return 0;
-  return RankOfSingularValues(Eigen::BDCSVD<Eigen::MatrixXd>(A).singularValues());
+  return RankOfSingularValues(ComputeSvd(A, SingularVectors::kNone).singular_values);
 }
 
 namespace {
@@ -88,8 +88,8 @@ Eigen::MatrixXd FreeDirections(const ConstraintGraph& graph, const Values& at,
     }
   }
   if (J.rows() == 0) return Eigen::MatrixXd::Identity(n, n);
-  Eigen::BDCSVD<Eigen::MatrixXd> svd(J, Eigen::ComputeFullV);
-  return svd.matrixV().rightCols(n - RankOfSingularValues(svd.singularValues()));
+  const SingularValueDecomposition svd = ComputeSvd(J, SingularVectors::kFullV);
+  return svd.V.rightCols(n - RankOfSingularValues(svd.singular_values));
 }
 
 std::vector<std::vector<int>> IndependentRows(const ConstraintGraph& graph, const Values& at) {

@@ -1,11 +1,11 @@
 #include "cfuse/kernel/batch_solver.h"
 
 #include <Eigen/Cholesky>
-#include <Eigen/SVD>
 
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/so3.h"
+#include "cfuse/kernel/svd.h"
 
 namespace cfuse {
 namespace {
@@ -66,16 +66,15 @@ BatchSummary SolveBatch(const std::vector<Factor>& factors, GaussianState* state
       Z = Eigen::MatrixXd::Identity(n, n);
       next = Lambda.ldlt().solve(g);
     } else {
-      Eigen::BDCSVD<Eigen::MatrixXd> svd(A, Eigen::ComputeThinU | Eigen::ComputeFullV);
-      const Eigen::VectorXd& s = svd.singularValues();
+      const SingularValueDecomposition svd = ComputeSvd(A, SingularVectors::kThinUFullV);
+      const Eigen::VectorXd& s = svd.singular_values;
       int rank = 0;
       while (rank < s.size() && s[rank] > options.rank_tolerance * std::max(1.0, s[0])) ++rank;
       const Eigen::VectorXd b = A * delta - c;
       // The minimum-norm solution of A δ = b, then the optimum along null(A).
       const Eigen::VectorXd particular =
-          svd.matrixV().leftCols(rank) *
-          (svd.matrixU().leftCols(rank).transpose() * b).cwiseQuotient(s.head(rank));
-      Z = svd.matrixV().rightCols(n - rank);
+          svd.V.leftCols(rank) * (svd.U.leftCols(rank).transpose() * b).cwiseQuotient(s.head(rank));
+      Z = svd.V.rightCols(n - rank);
       const Eigen::MatrixXd reduced = Z.transpose() * Lambda * Z;
       next = particular + Z * reduced.ldlt().solve(Z.transpose() * (g - Lambda * particular));
     }

@@ -2,12 +2,12 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-#include <Eigen/SVD>
 #include <algorithm>
 #include <cmath>
 
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/svd.h"
 
 namespace cfuse {
 namespace {
@@ -83,12 +83,11 @@ FitAnalysis AnalyseFit(const std::vector<Factor>& factors, const std::vector<Blo
     if (!constraint_rows.empty()) {
       Eigen::MatrixXd c(static_cast<int>(constraint_rows.size()), n);
       for (size_t i = 0; i < constraint_rows.size(); ++i) c.row(static_cast<int>(i)) = constraint_rows[i];
-      const Eigen::BDCSVD<Eigen::MatrixXd> svd(c, Eigen::ComputeFullV);
+      const SingularValueDecomposition svd = ComputeSvd(c, SingularVectors::kFullV);
+      const Eigen::VectorXd& s = svd.singular_values;
       int rank = 0;
-      for (int i = 0; i < svd.singularValues().size(); ++i) {
-        rank += svd.singularValues()[i] > kConstraintTolerance * svd.singularValues()[0];
-      }
-      null_space = svd.matrixV().rightCols(n - rank);
+      for (int i = 0; i < s.size(); ++i) rank += s[i] > kConstraintTolerance * s[0];
+      null_space = svd.V.rightCols(n - rank);
     }
     out.model_dof = static_cast<int>(null_space.cols());
     if (out.model_dof > 0) {
