@@ -98,13 +98,13 @@ int Run(int argc, char** argv) {
   app.add_flag("--verbose", verbose, "each wrong accepted answer on stderr");
   CLI11_PARSE(app, argc, argv);
 
-  const Camera pinhole = vision::StandardCamera();  // 640 x 480, 800 px focal length
+  const Camera pinhole = StandardCamera();  // 640 x 480, 800 px focal length
 
   fmt::print(
       "| model | data | clutter | command | trials | right | ambiguous, said | wrong, accepted | "
       "refused | alternatives | mean NEES (right) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& file : models) {
-    const ConstraintGraph g = dsl::LoadModel(file);
+    const ConstraintGraph g = LoadModel(file);
     for (const bool image : {false, true}) {
       for (const double clutter : {0.0, 1.0}) {
         Tally tally;
@@ -127,12 +127,12 @@ int Run(int argc, char** argv) {
           std::optional<Solution> solution;
           if (clutter == 0) {
             SolveOptions options;
-            options.pose_from_projections = &vision::PoseFromProjections;
+            options.pose_from_projections = &PoseFromProjections;
             options.reject_outliers = true;
             solution = Solve(g, sim.measurements, options);
           } else {
             InterpretOptions options;
-            options.solve.pose_from_projections = &vision::PoseFromProjections;
+            options.solve.pose_from_projections = &PoseFromProjections;
             const Interpretation in = Interpret(g, sim.measurements, options);
             if (in.Refusal().empty()) solution = in.solution;  // else refused, as the CLI does
           }

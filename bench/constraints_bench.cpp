@@ -14,13 +14,13 @@ const std::string kLamp = std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml";
 const std::string kBox = std::string(CFUSE_SOURCE_DIR) + "/examples/hinged-box.yaml";
 
 void BM_LoadLampModel(benchmark::State& state) {
-  for (auto _ : state) benchmark::DoNotOptimize(dsl::LoadModel(kLamp));
+  for (auto _ : state) benchmark::DoNotOptimize(LoadModel(kLamp));
 }
 BENCHMARK(BM_LoadLampModel)->Unit(benchmark::kMicrosecond);
 
 // All 56 lamp constraints (58 equations x 69 state variables).
 void BM_LampResiduals(benchmark::State& state) {
-  const ConstraintGraph g = dsl::LoadModel(kLamp);
+  const ConstraintGraph g = LoadModel(kLamp);
   Eigen::VectorXd r;
   for (auto _ : state) {
     EvaluateConstraints(g, g.nominal, &r, nullptr);
@@ -30,7 +30,7 @@ void BM_LampResiduals(benchmark::State& state) {
 BENCHMARK(BM_LampResiduals)->Unit(benchmark::kMicrosecond);
 
 void BM_LampResidualsAndJacobian(benchmark::State& state) {
-  const ConstraintGraph g = dsl::LoadModel(kLamp);
+  const ConstraintGraph g = LoadModel(kLamp);
   Eigen::VectorXd r;
   Eigen::MatrixXd J;
   for (auto _ : state) {
@@ -41,7 +41,7 @@ void BM_LampResidualsAndJacobian(benchmark::State& state) {
 BENCHMARK(BM_LampResidualsAndJacobian)->Unit(benchmark::kMicrosecond);
 
 void BM_LampDofAnalysis(benchmark::State& state) {
-  const ConstraintGraph g = dsl::LoadModel(kLamp);
+  const ConstraintGraph g = LoadModel(kLamp);
   for (auto _ : state) benchmark::DoNotOptimize(AnalyzeDof(g, g.nominal));
 }
 BENCHMARK(BM_LampDofAnalysis)->Unit(benchmark::kMillisecond);
@@ -55,14 +55,14 @@ void BM_LoadPointChain(benchmark::State& state) {
   text += "constraints:\n";
   for (int i = 0; i + 1 < n; ++i)
     text += fmt::format("  - distance(p{}, p{}) == nominal\n", i, i + 1);
-  for (auto _ : state) benchmark::DoNotOptimize(dsl::LoadModelFromString(text, "chain.yaml", "."));
+  for (auto _ : state) benchmark::DoNotOptimize(LoadModelFromString(text, "chain.yaml", "."));
   state.SetComplexityN(n);
 }
 BENCHMARK(BM_LoadPointChain)->Arg(1000)->Arg(10000)->Unit(benchmark::kMillisecond)->Complexity();
 
 // One revolute joint (5 x 12 Jacobian): the typical articulated-model row block.
 void BM_RevoluteJointJacobian(benchmark::State& state) {
-  const ConstraintGraph g = dsl::LoadModel(kBox);
+  const ConstraintGraph g = LoadModel(kBox);
   const Constraint& c = g.constraints[g.FindConstraint("hinge")];
   Eigen::VectorXd r;
   Eigen::MatrixXd J;

@@ -45,7 +45,7 @@ std::vector<Factor> InFusionOrder(const ConstraintGraph& g, std::vector<Factor> 
 // The paper's constraint fusion: each measurement and each constraint fused once, in turn,
 // with local iterations.
 void BM_FuseLamp(benchmark::State& state) {
-  const ConstraintGraph g = dsl::LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
+  const ConstraintGraph g = LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
   const std::vector<Factor> factors = InFusionOrder(g, MeasuredModel(g, 1));
   const GaussianState prior = MakePrior(g.blocks, g.nominal, PriorScale{});
   GaussianState s = prior;
@@ -61,7 +61,7 @@ BENCHMARK(BM_FuseLamp)->Unit(benchmark::kMicrosecond);
 // What `cfuse solve` runs: that pass, then Gauss-Newton passes (FuseSequence) until every
 // constraint holds to 1e-8 of the model's extent.
 void BM_SolveLamp(benchmark::State& state) {
-  const ConstraintGraph g = dsl::LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
+  const ConstraintGraph g = LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
   const std::vector<Factor> factors = InFusionOrder(g, MeasuredModel(g, 1));
   const GaussianState prior = MakePrior(g.blocks, g.nominal, PriorScale{});
   SequenceOptions options;

@@ -73,7 +73,7 @@ T Quantile(std::vector<T> v, double q) {
 
 InterpretOptions Config(const std::string& name) {
   InterpretOptions o;
-  o.solve.pose_from_projections = &vision::PoseFromProjections;
+  o.solve.pose_from_projections = &PoseFromProjections;
   if (name == "paper") {
     o.joint_compatibility = false;
     o.probability_order = false;
@@ -120,8 +120,8 @@ int Run(int argc, char** argv) {
       ->check(CLI::Range(1, 1000));
   CLI11_PARSE(app, argc, argv);
 
-  const ConstraintGraph g = dsl::LoadModel(model);
-  const Camera pinhole = vision::StandardCamera();  // 640 x 480, 800 px focal length
+  const ConstraintGraph g = LoadModel(model);
+  const Camera pinhole = StandardCamera();  // 640 x 480, 800 px focal length
 
   fmt::print(
       "| model | data | clutter | occlusion | search | all right | matches right | nodes "

@@ -55,10 +55,10 @@ double Median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
-dsl::LoadOptions WithUrdf() {
-  dsl::LoadOptions options;
+LoadOptions WithUrdf() {
+  LoadOptions options;
   options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
-    return importers::ImportUrdf(path, where);
+    return ImportUrdf(path, where);
   };
   return options;
 }
@@ -66,8 +66,8 @@ dsl::LoadOptions WithUrdf() {
 // `model` included by a model that adds three markers to every component.
 ConstraintGraph WithMarkers(const std::string& model, const fs::path& dir) {
   const ConstraintGraph base = fs::path(model).extension() == ".urdf"
-                                   ? importers::ImportUrdf(model)
-                                   : dsl::LoadModel(model, WithUrdf());
+                                   ? ImportUrdf(model)
+                                   : LoadModel(model, WithUrdf());
   fs::create_directories(dir);
   const fs::path path = dir / (fs::path(model).stem().string() + "-markers.yaml");
   std::ofstream out(path);
@@ -84,7 +84,7 @@ ConstraintGraph WithMarkers(const std::string& model, const fs::path& dir) {
     out << "  " << c.name << "_m3: {link: " << c.name << ", xyz: [0.01, -0.03, 0.08]}\n";
   }
   out.close();
-  return dsl::LoadModel(path.string(), WithUrdf());
+  return LoadModel(path.string(), WithUrdf());
 }
 
 // What a motion-capture rig sees: the markers, and single-point components (the lamp's points).

@@ -63,7 +63,7 @@ int Run(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   cv::setNumThreads(1);
 
-  const ConstraintGraph g = dsl::LoadModel(CFUSE_SOURCE_DIR "/examples/hinged-box.yaml");
+  const ConstraintGraph g = LoadModel(CFUSE_SOURCE_DIR "/examples/hinged-box.yaml");
   fmt::print(
       "| image | detector | segments | smoothing | edges | linking | subdivision | index | total "
       "| cv::Canny alone | total / Canny |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
@@ -76,7 +76,7 @@ int Run(int argc, char** argv) {
     // The simulation frames the box at 40 % of the image with f = 800 (at 640 x 480); 2.5 x
     // that focal length fills most of it, at any size in proportion.
     camera.fx = camera.fy = 800.0 * size.height / 480;
-    std::vector<vision::Rendering> renderings;
+    std::vector<Rendering> renderings;
     for (int s = 0; s < scenes; ++s) {
       SimulateOptions so;
       so.seed = 500 + s;
@@ -85,14 +85,14 @@ int Run(int argc, char** argv) {
       const Simulation sim = Simulate(g, so);
       Camera close = camera;
       close.fx = close.fy = 2.5 * camera.fx;
-      vision::RenderOptions ro;
+      RenderOptions ro;
       ro.seed = s;
-      renderings.push_back(vision::Render(g, sim.truth, close, ro));
+      renderings.push_back(Render(g, sim.truth, close, ro));
     }
     // cv::Canny alone, with the thresholds of the Canny path (contrasts 8 and 20 as Sobel
     // magnitudes of a unit step: 2.66 per grey level at sigma 1.2, measured there).
     std::vector<double> canny;
-    for (const vision::Rendering& r : renderings) {
+    for (const Rendering& r : renderings) {
       const cv::Mat image(r.height, r.width, CV_8U, const_cast<std::uint8_t*>(r.pixels.data()));
       cv::Mat edges;
       double best = 1e300;
@@ -105,24 +105,24 @@ int Run(int argc, char** argv) {
       canny.push_back(best);
     }
     const double canny_ms = Median(canny);
-    for (vision::SegmentDetector d :
-         {vision::SegmentDetector::kLowe, vision::SegmentDetector::kCanny,
-          vision::SegmentDetector::kLsd}) {
+    for (SegmentDetector d :
+         {SegmentDetector::kLowe, SegmentDetector::kCanny,
+          SegmentDetector::kLsd}) {
       std::vector<double> smoothing, edges, linking, subdivision, index, total;
       std::vector<double> count;
-      for (const vision::Rendering& r : renderings) {
-        vision::SegmentOptions o;
+      for (const Rendering& r : renderings) {
+        SegmentOptions o;
         o.detector = d;
-        vision::StageTimes best;
+        StageTimes best;
         double best_total = 1e300, best_index = 1e300;
         size_t n = 0;
         for (int k = 0; k < repeat; ++k) {
-          vision::StageTimes t;
-          std::vector<vision::ImageSegment> found =
-              vision::DetectSegments({r.pixels.data(), r.width, r.height, r.width}, o, &t);
+          StageTimes t;
+          std::vector<ImageSegment> found =
+              DetectSegments({r.pixels.data(), r.width, r.height, r.width}, o, &t);
           n = found.size();
           const auto start = Clock::now();
-          const vision::SegmentIndex built(std::move(found), r.width, r.height);
+          const SegmentIndex built(std::move(found), r.width, r.height);
           const double index_ms =
               std::chrono::duration<double, std::milli>(Clock::now() - start).count();
           if (t.Total() < best_total) {
@@ -142,7 +142,7 @@ int Run(int argc, char** argv) {
       fmt::print(
           "| {} x {} | {} | {:.0f} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | {:.3f} | **{:.3f}** | "
           "{:.3f} | {:.2f} |\n",
-          size.width, size.height, vision::DetectorName(d), Median(count), Median(smoothing),
+          size.width, size.height, DetectorName(d), Median(count), Median(smoothing),
           Median(edges), Median(linking), Median(subdivision), Median(index), Median(total),
           canny_ms, Median(total) / canny_ms);
       std::fflush(stdout);

@@ -63,7 +63,7 @@ struct Result {
   int frames = 0, verified = 0, wrong = 0;
   int lost_at = -1;  // the first frame off by more than 20 mm or 5 degrees (-1: none)
   std::vector<double> t_mm, r_deg, q_deg, ms;
-  track::FrameTimes mean;  // per frame
+  FrameTimes mean;  // per frame
 
   std::string Tracked() const {
     return fmt::format("{:.0f} %", 100.0 * (lost_at < 0 ? frames : lost_at) / frames);
@@ -96,13 +96,13 @@ void Score(const ConstraintGraph& graph, const Values& estimate, const Values& t
   if (!graph.joints.empty()) out->q_deg.push_back(q_deg);
 }
 
-Result RunCfuse(const ConstraintGraph& graph, const std::vector<vision::SequenceFrame>& frames,
-                int step, const track::TrackerOptions& options) {
+Result RunCfuse(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frames,
+                int step, const TrackerOptions& options) {
   Result out;
-  track::Tracker tracker(graph, vision::StandardCamera(), frames[0].truth, options);
+  Tracker tracker(graph, StandardCamera(), frames[0].truth, options);
   for (size_t i = 0; i < frames.size(); i += step) {
-    const vision::Rendering& r = frames[i].rendering;
-    const track::TrackedFrame f = tracker.Track({r.pixels.data(), r.width, r.height, r.width});
+    const Rendering& r = frames[i].rendering;
+    const TrackedFrame f = tracker.Track({r.pixels.data(), r.width, r.height, r.width});
     Score(graph, f.estimate.mean, frames[i].truth, f.verified, f.times.Total(), &out);
     out.mean.segments += f.times.segments;
     out.mean.prediction += f.times.prediction;
@@ -154,7 +154,7 @@ int Run(int argc, char** argv) {
   app.add_option("--without", without, std::string("safeguards off, comma-separated: ") +
                                            bench::kSafeguards);
   CLI11_PARSE(app, argc, argv);
-  track::TrackerOptions options;
+  TrackerOptions options;
   try {
     bench::DisableSafeguards(without, &options);
   } catch (const std::invalid_argument& e) {
@@ -162,30 +162,30 @@ int Run(int argc, char** argv) {
     return 2;
   }
   const std::vector<int> steps = ParseSteps(steps_text);
-  const std::optional<vision::RenderStyle> style = vision::ParseRenderStyle(style_name);
+  const std::optional<RenderStyle> style = ParseRenderStyle(style_name);
   if (!style) {
     fmt::print(stderr, "track_sweep: unknown style '{}' (plain or realistic)\n", style_name);
     return 2;
   }
   const auto photographs =
-      *style == vision::RenderStyle::kRealistic
-          ? std::make_shared<const std::vector<vision::GrayImage>>(
-                vision::LoadPhotographs(vision::VispPhotographPaths()))
+      *style == RenderStyle::kRealistic
+          ? std::make_shared<const std::vector<GrayImage>>(
+                LoadPhotographs(VispPhotographPaths()))
           : nullptr;
   cv::setNumThreads(1);  // one core
 
-  const ConstraintGraph hinged = dsl::LoadModel(CFUSE_SOURCE_DIR "/examples/hinged-box.yaml");
+  const ConstraintGraph hinged = LoadModel(CFUSE_SOURCE_DIR "/examples/hinged-box.yaml");
   const std::string cao = CFUSE_SOURCE_DIR "/tests/data/cao/file_box.cao";
-  const ConstraintGraph box = importers::ImportCao(cao);
-  const Camera camera = vision::StandardCamera();
+  const ConstraintGraph box = ImportCao(cao);
+  const Camera camera = StandardCamera();
   auto render = [&](const ConstraintGraph& graph, const std::string& scenario) {
-    return vision::RenderSequence(
+    return RenderSequence(
         graph, camera,
-        vision::StandardSequence(graph, scenario, frames, seed, *style, photographs));
+        StandardSequence(graph, scenario, frames, seed, *style, photographs));
   };
 
   // 1. Time by stage.
-  const std::vector<vision::SequenceFrame> steady = render(hinged, "steady");
+  const std::vector<SequenceFrame> steady = render(hinged, "steady");
   std::vector<Result> runs;
   for (int i = 0; i < repeat; ++i) runs.push_back(RunCfuse(hinged, steady, 1, options));
   auto median_of = [&](auto field) {
@@ -217,11 +217,11 @@ int Run(int argc, char** argv) {
   fmt::print("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const auto& [name, graph] :
        {std::pair<const char*, const ConstraintGraph*>{"hinged", &hinged}, {"rigid", &box}}) {
-    for (const std::string& scenario : vision::StandardSequenceNames()) {
-      const std::vector<vision::SequenceFrame> sequence = render(*graph, scenario);
+    for (const std::string& scenario : StandardSequenceNames()) {
+      const std::vector<SequenceFrame> sequence = render(*graph, scenario);
       const Result r = RunCfuse(*graph, sequence, 1, options);
       fmt::print("| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n", name, scenario,
-                 Num(vision::MedianImageMotion(*graph, sequence, camera), 1), r.Verified(), r.wrong,
+                 Num(MedianImageMotion(*graph, sequence, camera), 1), r.Verified(), r.wrong,
                  Num(Median(r.t_mm)), Num(Max(r.t_mm)), Num(Median(r.r_deg)), Num(Max(r.r_deg)),
                  Num(Median(r.q_deg)), Num(Max(r.q_deg)), Num(Median(r.ms)));
       std::fflush(stdout);
@@ -230,7 +230,7 @@ int Run(int argc, char** argv) {
 
   // 3. The hinged box against the step.
   fmt::print("\n## Hinged box against the frame step k (steady: {:.1f} px a frame at k = 1)\n\n",
-             vision::MedianImageMotion(hinged, steady, camera));
+             MedianImageMotion(hinged, steady, camera));
   fmt::print(
       "| k | frames | tracked | verified | wrong | median t (mm) | worst t (mm) | median R (°) "
       "| worst R (°) | median joint (°) | worst joint (°) | median ms |\n");
@@ -251,7 +251,7 @@ int Run(int argc, char** argv) {
   const bool peer = false;
   if (!no_peer) fmt::print("\n(ViSP was not found when this was built: no peer columns)\n");
 #endif
-  const std::vector<vision::SequenceFrame> rigid = render(box, "steady");
+  const std::vector<SequenceFrame> rigid = render(box, "steady");
   fmt::print("\n## Rigid box against the frame step k: cfuse{}\n\n",
              peer ? " and ViSP's vpMbGenericTracker (edges, its tutorial settings)" : "");
   fmt::print(

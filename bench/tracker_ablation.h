@@ -1,7 +1,7 @@
 // The benchmarks' `--without` option: the tracker with one or more of its safeguards turned
 // off, so that docs/benchmarks.md can show what each one is for, measured in the same run.
 //
-//   track::TrackerOptions options;
+//   TrackerOptions options;
 //   DisableSafeguards("settle,outdone", &options);  // throws std::invalid_argument on a bad name
 #pragma once
 
@@ -19,7 +19,7 @@ inline constexpr const char* kSafeguards =
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle)";
 
-inline void DisableSafeguards(const std::string& list, track::TrackerOptions* options) {
+inline void DisableSafeguards(const std::string& list, TrackerOptions* options) {
   std::stringstream in(list);
   std::string name;
   while (std::getline(in, name, ',')) {

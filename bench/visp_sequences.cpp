@@ -213,13 +213,13 @@ Values Posed(const ConstraintGraph& graph, const Rigid3d& camera_from_object) {
 }
 
 // The mean distance (px) of the model's visible edges at `a` from the same edges' lines at `b`.
-double EdgeDistance(const ConstraintGraph& graph, const std::vector<geometry::ModelEdge>& edges,
+double EdgeDistance(const ConstraintGraph& graph, const std::vector<ModelEdge>& edges,
                     const Camera& camera, const Rigid3d& a, const Rigid3d& b) {
-  const geometry::Visibility visible{0, 0, true};
+  const Visibility visible{0, 0, true};
   const Values va = Posed(graph, a), vb = Posed(graph, b);
   double sum = 0;
   int n = 0;
-  for (const geometry::ProjectedEdge& e : geometry::VisibleEdges(graph, edges, va, camera, visible)) {
+  for (const ProjectedEdge& e : VisibleEdges(graph, edges, va, camera, visible)) {
     const Component& c = graph.components[edges[e.edge].component];
     const Rigid3d& pa = va.poses[graph.blocks[c.block].index];
     const Rigid3d& pb = vb.poses[graph.blocks[c.block].index];
@@ -245,25 +245,25 @@ std::string Num(double x, int digits = 2) {
 }
 
 struct Run {
-  std::vector<track::Verification> verification;
+  std::vector<Verification> verification;
   std::vector<double> position_sigma;
   std::vector<bool> accepted;
   std::vector<Rigid3d> poses;
   std::vector<double> ms;
-  track::FrameTimes mean;
+  FrameTimes mean;
 };
 
 Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
                const std::vector<int>& picked, const Rigid3d& start,
-               const track::TrackerOptions& base,
-               track::EdgeEvidence evidence = track::EdgeEvidence::kNormalSearch) {
+               const TrackerOptions& base,
+               EdgeEvidence evidence = EdgeEvidence::kNormalSearch) {
   Run run;
-  track::TrackerOptions options = base;
+  TrackerOptions options = base;
   options.evidence = evidence;
-  track::Tracker tracker(graph, s.camera, Posed(graph, start), options);
+  Tracker tracker(graph, s.camera, Posed(graph, start), options);
   for (int k : picked) {
     const cv::Mat& m = frames[k];
-    const track::TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
+    const TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
     run.accepted.push_back(f.verified);
     run.verification.push_back(f.verification);
     run.position_sigma.push_back(f.position_sigma);
@@ -325,7 +325,7 @@ int main(int argc, char** argv) {
   app.add_option("--without", without, std::string("safeguards off, comma-separated: ") +
                                            bench::kSafeguards);
   CLI11_PARSE(app, argc, argv);
-  track::TrackerOptions options;
+  TrackerOptions options;
   try {
     bench::DisableSafeguards(without, &options);
   } catch (const std::invalid_argument& e) {
@@ -344,8 +344,8 @@ int main(int argc, char** argv) {
   for (const std::string& name : sequences) {
     const Sequence s = Load(name);
     const std::vector<cv::Mat> frames = Frames(s);
-    const ConstraintGraph graph = importers::ImportCao(s.cao);
-    const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
+    const ConstraintGraph graph = ImportCao(s.cao);
+    const std::vector<ModelEdge> edges = ModelEdges(graph);
     // The reference: the truth, or ViSP's own track at step 1.
     std::vector<Rigid3d> reference = s.truth;
     std::vector<int> all(s.count);
@@ -395,14 +395,14 @@ int main(int argc, char** argv) {
                                   s.start.rotation,
                               s.start.translation + 0.001 * move);
           runs.push_back(TrackCfuse(graph, s, frames, picked, start, options,
-                                    who == "cfuse" ? track::EdgeEvidence::kNormalSearch
-                                                   : track::EdgeEvidence::kSegments));
+                                    who == "cfuse" ? EdgeEvidence::kNormalSearch
+                                                   : EdgeEvidence::kSegments));
         }
         for (int r = 0; r < repeat; ++r) {
           run = !ours ? TrackVisp(s, frames, picked, s.start)
                       : TrackCfuse(graph, s, frames, picked, s.start, options,
-                                   who == "cfuse" ? track::EdgeEvidence::kNormalSearch
-                                                  : track::EdgeEvidence::kSegments);
+                                   who == "cfuse" ? EdgeEvidence::kNormalSearch
+                                                  : EdgeEvidence::kSegments);
           means.push_back(Mean(run.ms));
           later.push_back(Mean(std::vector<double>(run.ms.begin() + 1, run.ms.end())));
         }
@@ -444,8 +444,8 @@ int main(int argc, char** argv) {
                  "samples\n";
           for (size_t i = 0; i < picked.size(); ++i) {
             const Rigid3d& p = run.poses[i];
-            const track::Verification v =
-                run.verification.empty() ? track::Verification{} : run.verification[i];
+            const Verification v =
+                run.verification.empty() ? Verification{} : run.verification[i];
             out << fmt::format(
                 "{},{},{:.6f},{:.6f},{:.6f},{:.7f},{:.7f},{:.7f},{:.7f},{:.3f},{:.3f},{:.3f},{:.3f}"
                 ","
@@ -503,7 +503,7 @@ int main(int argc, char** argv) {
           const double px = EdgeDistance(graph, edges, s.camera, run.poses[i], truth);
           if (err > 10 || px > 3) {
             ++wrong;
-            const track::Verification& v = run.verification[i];
+            const Verification& v = run.verification[i];
             fmt::print(stderr,
                        "perturbed {} trial {} frame {} (its {}th): verified {:.1f} mm / {:.1f} px off "
                        "(start {:.0f} mm {:.0f} deg; sigma {:.1f} mm agreement {:.2f} share {:.2f} "

@@ -40,13 +40,13 @@ int Guarded(std::ostream& err, const std::function<int()>& body) {
   }
 }
 
-dsl::LoadOptions ModelLoadOptions() {
-  dsl::LoadOptions options;
+LoadOptions ModelLoadOptions() {
+  LoadOptions options;
   options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
-    return importers::ImportUrdf(path, where);
+    return ImportUrdf(path, where);
   };
   options.include_handlers[".cao"] = [](const std::string& path, const SourceLocation& where) {
-    return importers::ImportCao(path, where);
+    return ImportCao(path, where);
   };
   return options;
 }
@@ -59,15 +59,15 @@ ConstraintGraph LoadAnyModel(const std::string& path) {
   if (fs::is_directory(path, ec)) {
     throw InputError(SourceLocation(path), "is a directory, not a model file");
   }
-  if (ext == ".urdf") return importers::ImportUrdf(path);
-  if (ext == ".cao") return importers::ImportCao(path);
+  if (ext == ".urdf") return ImportUrdf(path);
+  if (ext == ".cao") return ImportCao(path);
   if (ext != ".yaml" && ext != ".yml") {
     throw InputError(SourceLocation(path),
                      fmt::format("unsupported model format '{}': model files are .yaml, .yml, "
                                  ".urdf or .cao",
                                  ext.empty() ? "(no extension)" : ext));
   }
-  return dsl::LoadModel(path, ModelLoadOptions());
+  return LoadModel(path, ModelLoadOptions());
 }
 
 namespace {
@@ -87,13 +87,13 @@ bool LooksLikeXml(const std::string& path) {
 
 Camera LoadAnyCamera(const std::string& path) {
   // ViSP's XML first: its roots (<conf>, <root>) are not OpenCV's <opencv_storage>.
-  if (importers::IsVispCameraFile(path)) return importers::ReadVispCamera(path);
-  if (vision::IsOpenCvStorage(path)) return vision::ReadOpenCvCamera(path);
+  if (IsVispCameraFile(path)) return ReadVispCamera(path);
+  if (IsOpenCvStorage(path)) return ReadOpenCvCamera(path);
   // Other XML: refused by the ViSP reader, which names the roots of the XML cameras cfuse reads
   // (the YAML reader would call it a malformed mapping).
   std::error_code ec;
-  if (fs::is_regular_file(path, ec) && LooksLikeXml(path)) return importers::ReadVispCamera(path);
-  return dsl::ReadCameraFile(path);
+  if (fs::is_regular_file(path, ec) && LooksLikeXml(path)) return ReadVispCamera(path);
+  return ReadCameraFile(path);
 }
 
 void RequireWritable(const std::string& path) {

@@ -15,6 +15,7 @@
 
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/constraints/graphviz.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/dsl/measurement_reader.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/dsl/model_writer.h"
@@ -116,9 +117,9 @@ int RunCheck(const CheckCommandOptions& options, std::ostream& out, std::ostream
     const ModelSummary summary = Summarize(graph);
     std::optional<Solution> solution;
     if (!options.measurements.empty()) {
-      const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+      const MeasurementSet set = ReadMeasurements(options.measurements);
       SolveOptions solve;
-      solve.pose_from_projections = &vision::PoseFromProjections;
+      solve.pose_from_projections = &PoseFromProjections;
       solve.reject_outliers = true;
       solution = Solve(graph, set, solve);
     }
@@ -172,7 +173,7 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
   return Guarded(err, [&] {
     if (!options.output.empty()) RequireWritable(options.output);
     const ConstraintGraph graph = LoadAnyModel(options.model);
-    const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+    const MeasurementSet set = ReadMeasurements(options.measurements);
     if (std::none_of(set.points.begin(), set.points.end(),
                      [](const MeasuredPoint& p) { return !p.label.empty(); })) {
       throw InputError(SourceLocation(options.measurements),
@@ -180,20 +181,20 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
                        "`cfuse interpret`)");
     }
     std::optional<PoseSet> guess;
-    if (!options.guess.empty()) guess = dsl::ReadPoses(options.guess);
+    if (!options.guess.empty()) guess = ReadPoses(options.guess);
     const auto start = std::chrono::steady_clock::now();
     Solution solution;
     std::optional<double> residual_variance;
     if (options.method == "parametric") {
       ParametricOptions parametric;
-      parametric.pose_from_projections = &vision::PoseFromProjections;
+      parametric.pose_from_projections = &PoseFromProjections;
       parametric.guess = guess ? &*guess : nullptr;
       ParametricSolution p = SolveParametric(graph, set, parametric);
       solution = std::move(p.solution);
       residual_variance = p.residual_variance;
     } else {
       SolveOptions solve_options;
-      solve_options.pose_from_projections = &vision::PoseFromProjections;
+      solve_options.pose_from_projections = &PoseFromProjections;
       solve_options.guess = guess ? &*guess : nullptr;
       solve_options.use_constraints_between_components = options.method != "components";
       solve_options.reject_outliers = true;
@@ -242,11 +243,11 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
       if (!path->empty()) RequireWritable(*path);
     }
     const ConstraintGraph graph = LoadAnyModel(options.model);
-    const MeasurementSet set = dsl::ReadMeasurements(options.measurements);
+    const MeasurementSet set = ReadMeasurements(options.measurements);
     InterpretOptions interpret;
     interpret.gate_confidence = options.gate;
     interpret.max_nodes = options.max_nodes;
-    interpret.solve.pose_from_projections = &vision::PoseFromProjections;
+    interpret.solve.pose_from_projections = &PoseFromProjections;
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(graph, set, interpret);
     const double ms =
@@ -340,7 +341,7 @@ int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::o
 int RunImport(const ImportCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
-    const std::string text = dsl::WriteModel(graph);
+    const std::string text = WriteModel(graph);
     if (options.output.empty()) {
       out << text;
     } else {
@@ -354,13 +355,13 @@ int RunFk(const FkCommandOptions& options, std::ostream& out, std::ostream& err)
   return Guarded(err, [&] {
     const ConstraintGraph graph = LoadAnyModel(options.model);
     std::vector<JointValue> given;
-    if (!options.joints.empty()) given = dsl::ReadJointValues(options.joints);
+    if (!options.joints.empty()) given = ReadJointValues(options.joints);
     const std::map<std::string, double> q = CompleteJointValues(graph, given);
     for (const Joint& j : graph.joints) {
       const auto it = q.find(j.name);
       if (!j.limits || it == q.end()) continue;
       if (it->second < j.limits->first || it->second > j.limits->second) {
-        const bool angle = j.type != JointType::kPrismatic;
+        const bool angle = !ModelOf(j.type).VariableIsLength();
         const double unit = angle ? 180 / M_PI : 1000;
         err << fmt::format(
             "cfuse: warning: joint '{}' at {:.6g} {} is beyond its limits [{:.6g}, "

@@ -35,7 +35,7 @@ bool DemoTracking(const DemoCommandOptions& options, std::ostream& out) {
   out << "\ncfuse demo, part 2: Lowe's hinged file box (1992), built in, tracked through a "
          "rendered sequence\n";
   const ConstraintGraph graph =
-      dsl::LoadModelFromString(kEmbeddedHingedBoxYaml, "built-in examples/hinged-box.yaml", ".");
+      LoadModelFromString(kEmbeddedHingedBoxYaml, "built-in examples/hinged-box.yaml", ".");
   // The overlays go to a sibling directory first, which replaces the old one at the end;
   // created before the frames are rendered, so that a path that cannot be one fails at once.
   const fs::path target =
@@ -49,10 +49,10 @@ bool DemoTracking(const DemoCommandOptions& options, std::ostream& out) {
                        "cannot create the directory: " + ec.message());
     }
   }
-  const Camera camera = vision::StandardCamera();
+  const Camera camera = StandardCamera();
   constexpr int kFrames = 120;
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", kFrames, 7);
-  const std::vector<vision::SequenceFrame> frames = vision::RenderSequence(graph, camera, spec);
+  const SequenceSpec spec = StandardSequence(graph, "steady", kFrames, 7);
+  const std::vector<SequenceFrame> frames = RenderSequence(graph, camera, spec);
   out << fmt::format(
       "render: {} frames of {} x {}, the box swaying and turning 1.3 m away, its lid swinging "
       "between {:.0f} and {:.0f} degrees, {} clutter lines, noise and blur\n",
@@ -61,13 +61,13 @@ bool DemoTracking(const DemoCommandOptions& options, std::ostream& out) {
       (spec.joints.at("hinge").first + spec.joints.at("hinge").second) * 180 / M_PI,
       spec.render.clutter_lines);
 
-  track::Tracker tracker(graph, camera, frames[0].truth);
+  Tracker tracker(graph, camera, frames[0].truth);
   std::vector<double> ms, t_mm, q_deg;
   int verified = 0;
   for (int i = 0; i < kFrames; ++i) {
-    const vision::Rendering& r = frames[i].rendering;
-    const vision::GrayView view{r.pixels.data(), r.width, r.height, r.width};
-    const track::TrackedFrame f = tracker.Track(view);
+    const Rendering& r = frames[i].rendering;
+    const GrayView view{r.pixels.data(), r.width, r.height, r.width};
+    const TrackedFrame f = tracker.Track(view);
     ms.push_back(f.times.Total());
     if (f.verified) {
       ++verified;
@@ -138,7 +138,7 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
     }
     out << "cfuse demo: the desk lamp of Hel-Or & Werman (1994), built in\n\n";
     const ConstraintGraph graph =
-        dsl::LoadModelFromString(kEmbeddedLampYaml, "built-in examples/lamp.yaml", ".");
+        LoadModelFromString(kEmbeddedLampYaml, "built-in examples/lamp.yaml", ".");
     const ModelSummary summary = Summarize(graph);
     PrintSummary(graph, summary, out);
 
@@ -159,7 +159,7 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
         graph.components.size(), sim.measurements.points.size() - real);
 
     InterpretOptions interpret;
-    interpret.solve.pose_from_projections = &vision::PoseFromProjections;
+    interpret.solve.pose_from_projections = &PoseFromProjections;
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(graph, sim.measurements, interpret);
     const double ms =
@@ -179,7 +179,7 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
     int right = 0;
     double sum_estimate = 0, sum_measured = 0;
     int measured = 0;
-    std::vector<vision::PictureMarker> markers;
+    std::vector<PictureMarker> markers;
     for (size_t c = 0; c < graph.components.size(); ++c) {
       const std::string name = graph.components[c].name;
       const Eigen::Vector3d truth = ModelPoint(graph, sim.truth, static_cast<int>(c), -1);
@@ -202,8 +202,8 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
         ++measured;
       }
       markers.push_back({fitted,
-                         found_m < 0 ? vision::PictureMarker::Kind::kOccluded
-                                     : vision::PictureMarker::Kind::kModelPoint,
+                         found_m < 0 ? PictureMarker::Kind::kOccluded
+                                     : PictureMarker::Kind::kModelPoint,
                          name});
     }
     int clutter_matched = 0;
@@ -211,9 +211,9 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
       const bool ok = sim.matches[m] == in.matches[m];
       if (sim.matches[m].empty() && !ok) ++clutter_matched;
       markers.push_back({sim.measurements.points[m].xyz,
-                         !ok                      ? vision::PictureMarker::Kind::kWrong
-                         : sim.matches[m].empty() ? vision::PictureMarker::Kind::kClutter
-                                                  : vision::PictureMarker::Kind::kMatched,
+                         !ok                      ? PictureMarker::Kind::kWrong
+                         : sim.matches[m].empty() ? PictureMarker::Kind::kClutter
+                                                  : PictureMarker::Kind::kMatched,
                          ""});
     }
     out << fmt::format(
@@ -228,7 +228,7 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
     }
 
     // The picture: the fitted lamp drawn along its distance constraints.
-    std::vector<vision::PictureSegment> segments;
+    std::vector<PictureSegment> segments;
     for (const Constraint& k : graph.constraints) {
       const std::vector<int> comps = ConstraintComponents(graph, k);
       if (comps.size() == 2 && k.blocks.size() == 2) {
@@ -236,7 +236,7 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
             {ModelPoint(graph, estimate, comps[0], -1), ModelPoint(graph, estimate, comps[1], -1)});
       }
     }
-    const std::string png = vision::PointPicturePng(
+    const std::string png = PointPicturePng(
         markers, segments,
         fmt::format("cfuse demo: desk lamp, {} measurements ({} clutter), {} of {} points right",
                     sim.measurements.points.size(), sim.measurements.points.size() - real, right,

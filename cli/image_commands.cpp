@@ -41,7 +41,7 @@ nlohmann::json SegmentJson(double x1, double y1, double x2, double y2) {
 }
 
 // "x,y,w,h": four whole numbers, the region inside the image.
-vision::PixelRect ParseRoi(const std::string& text, const std::string& image, int width,
+PixelRect ParseRoi(const std::string& text, const std::string& image, int width,
                            int height) {
   std::vector<long> v;
   std::stringstream in(text);
@@ -120,24 +120,24 @@ int RunSegments(const SegmentsCommandOptions& options, std::ostream& out, std::o
     for (const std::string* path : {&options.output, &options.overlay}) {
       if (!path->empty()) RequireWritable(*path);
     }
-    const std::optional<vision::SegmentDetector> detector = vision::ParseDetector(options.detector);
+    const std::optional<SegmentDetector> detector = ParseDetector(options.detector);
     if (!detector) {
       throw InputError(
           SourceLocation(options.image),
           fmt::format("--detector '{}': the detectors are lowe, canny and lsd", options.detector));
     }
     const cv::Mat image = ReadGrayImage(options.image);
-    vision::SegmentOptions so;
+    SegmentOptions so;
     so.detector = *detector;
     if (!options.roi.empty()) so.roi = ParseRoi(options.roi, options.image, image.cols, image.rows);
-    vision::StageTimes times;
-    const std::vector<vision::ImageSegment> segments = vision::DetectSegments(
+    StageTimes times;
+    const std::vector<ImageSegment> segments = DetectSegments(
         {image.data, image.cols, image.rows, static_cast<int>(image.step)}, so, &times);
     nlohmann::json json = {{"width", image.cols},
                            {"height", image.rows},
-                           {"detector", vision::DetectorName(*detector)},
+                           {"detector", DetectorName(*detector)},
                            {"segments", nlohmann::json::array()}};
-    for (const vision::ImageSegment& s : segments) {
+    for (const ImageSegment& s : segments) {
       json["segments"].push_back(SegmentJson(s.a.x(), s.a.y(), s.b.x(), s.b.y()));
     }
     json["time_ms"] = Round3(times.Total());
@@ -149,7 +149,7 @@ int RunSegments(const SegmentsCommandOptions& options, std::ostream& out, std::o
         cv::rectangle(picture, cv::Rect(so.roi->x, so.roi->y, so.roi->width, so.roi->height),
                       cv::Scalar(255, 160, 0), 1);
       }
-      for (const vision::ImageSegment& s : segments) {
+      for (const ImageSegment& s : segments) {
         cv::line(picture, cv::Point2f(s.a.x(), s.a.y()), cv::Point2f(s.b.x(), s.b.y()),
                  cv::Scalar(0, 0, 255), 1, cv::LINE_AA);
       }
@@ -181,14 +181,14 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
                        "--overlay draws on an image: give --image");
     }
     const Values values = PosedModel(graph, options.pose);
-    const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
-    const std::vector<geometry::ProjectedEdge> visible =
-        geometry::VisibleEdges(graph, edges, values, camera);
+    const std::vector<ModelEdge> edges = ModelEdges(graph);
+    const std::vector<ProjectedEdge> visible =
+        VisibleEdges(graph, edges, values, camera);
     nlohmann::json json = {{"width", camera.width},
                            {"height", camera.height},
                            {"edges", nlohmann::json::array()},
                            {"names", nlohmann::json::array()}};
-    for (const geometry::ProjectedEdge& e : visible) {
+    for (const ProjectedEdge& e : visible) {
       json["edges"].push_back(SegmentJson(e.a.x(), e.a.y(), e.b.x(), e.b.y()));
       json["names"].push_back(graph.components[edges[e.edge].component].name + "." +
                               edges[e.edge].name);
@@ -203,7 +203,7 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
       }
       cv::Mat picture;
       cv::cvtColor(image, picture, cv::COLOR_GRAY2BGR);
-      for (const geometry::ProjectedEdge& e : visible) {
+      for (const ProjectedEdge& e : visible) {
         cv::line(picture, cv::Point2d(e.a.x(), e.a.y()), cv::Point2d(e.b.x(), e.b.y()),
                  cv::Scalar(0, 220, 255), 1, cv::LINE_AA);
       }
@@ -217,14 +217,14 @@ int RunProject(const ProjectCommandOptions& options, std::ostream& out, std::ost
 namespace {
 
 // The render command's style, or an InputError naming the styles.
-vision::RenderStyle RenderStyleOption(const RenderCommandOptions& options) {
-  const std::optional<vision::RenderStyle> style = vision::ParseRenderStyle(options.style);
+RenderStyle RenderStyleOption(const RenderCommandOptions& options) {
+  const std::optional<RenderStyle> style = ParseRenderStyle(options.style);
   if (!style) {
     throw InputError(
         SourceLocation(options.model),
         fmt::format("--style '{}': the styles are plain and realistic", options.style));
   }
-  if (*style != vision::RenderStyle::kRealistic && !options.photographs.empty()) {
+  if (*style != RenderStyle::kRealistic && !options.photographs.empty()) {
     throw InputError(SourceLocation(options.photographs.front()),
                      "--photographs is for --style realistic");
   }
@@ -233,26 +233,26 @@ vision::RenderStyle RenderStyleOption(const RenderCommandOptions& options) {
 
 // The realistic style's photographs: those given, else the visp-images-data package's if it is
 // installed; null (procedural cards) when neither.
-std::shared_ptr<const std::vector<vision::GrayImage>> RenderPhotographs(
-    const RenderCommandOptions& options, vision::RenderStyle style) {
-  if (style != vision::RenderStyle::kRealistic) return nullptr;
+std::shared_ptr<const std::vector<GrayImage>> RenderPhotographs(
+    const RenderCommandOptions& options, RenderStyle style) {
+  if (style != RenderStyle::kRealistic) return nullptr;
   const std::vector<std::string> paths =
-      options.photographs.empty() ? vision::VispPhotographPaths() : options.photographs;
+      options.photographs.empty() ? VispPhotographPaths() : options.photographs;
   if (paths.empty()) return nullptr;
-  return std::make_shared<const std::vector<vision::GrayImage>>(vision::LoadPhotographs(paths));
+  return std::make_shared<const std::vector<GrayImage>>(LoadPhotographs(paths));
 }
 
-std::string StyleNote(vision::RenderStyle style) {
-  return style == vision::RenderStyle::kPlain
+std::string StyleNote(RenderStyle style) {
+  return style == RenderStyle::kPlain
              ? ""
-             : fmt::format(" ({})", vision::RenderStyleName(style));
+             : fmt::format(" ({})", RenderStyleName(style));
 }
 
 // `cfuse render --sequence`: the frames, the true track and the first frame's poses, written
 // into a sibling directory first and renamed into place at the end.
 int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintGraph& graph,
-                          const Camera& camera, vision::RenderStyle style,
-                          std::shared_ptr<const std::vector<vision::GrayImage>> photographs,
+                          const Camera& camera, RenderStyle style,
+                          std::shared_ptr<const std::vector<GrayImage>> photographs,
                           std::ostream& out) {
   const SourceLocation where(options.output);
   std::error_code ec;
@@ -270,12 +270,12 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
       !(fs::is_directory(options.output, ec) && fs::is_empty(options.output, ec))) {
     throw InputError(where, "exists and is not an empty directory: give a new one");
   }
-  const vision::SequenceSpec spec = AtFile(options.model, [&] {
-    return vision::StandardSequence(graph, options.sequence, options.frames, options.seed, style,
+  const SequenceSpec spec = AtFile(options.model, [&] {
+    return StandardSequence(graph, options.sequence, options.frames, options.seed, style,
                                     std::move(photographs));
   });
-  const std::vector<vision::SequenceFrame> frames =
-      AtFile(options.camera, [&] { return vision::RenderSequence(graph, camera, spec); });
+  const std::vector<SequenceFrame> frames =
+      AtFile(options.camera, [&] { return RenderSequence(graph, camera, spec); });
   const fs::path target = fs::absolute(options.output).lexically_normal();
   const fs::path partial = target.string() + ".partial";
   fs::remove_all(partial, ec);
@@ -285,8 +285,8 @@ int RenderSequenceCommand(const RenderCommandOptions& options, const ConstraintG
   try {
     std::string truth = TrackCsvHeader(graph);
     for (size_t i = 0; i < frames.size(); ++i) {
-      const vision::Rendering& r = frames[i].rendering;
-      const std::vector<std::uint8_t> png = vision::EncodePng(r.pixels, r.width, r.height);
+      const Rendering& r = frames[i].rendering;
+      const std::vector<std::uint8_t> png = EncodePng(r.pixels, r.width, r.height);
       WriteFileAtomically((partial / fmt::format("frame_{:05d}.png", i)).string(),
                           std::string(png.begin(), png.end()));
       truth += TrackCsvRow(graph, static_cast<int>(i), 0, true, frames[i].truth);
@@ -318,7 +318,7 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
       RequireWritable(options.output);
       if (!options.truth.empty()) RequireWritable(options.truth);
     }
-    const vision::RenderStyle style = RenderStyleOption(options);
+    const RenderStyle style = RenderStyleOption(options);
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const Camera camera = LoadAnyCamera(options.camera);
     if (camera.width <= 0 || camera.height <= 0) {
@@ -327,7 +327,7 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
                        "the camera gives no image size (width and height), and render draws "
                        "images of the camera's size: give a camera file with one");
     }
-    std::shared_ptr<const std::vector<vision::GrayImage>> photographs =
+    std::shared_ptr<const std::vector<GrayImage>> photographs =
         RenderPhotographs(options, style);
     if (!options.sequence.empty()) {
       if (!options.pose.empty()) {
@@ -340,7 +340,7 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
       throw InputError(SourceLocation(options.model), "give --pose (or --sequence NAME)");
     }
     const Values values = PosedModel(graph, options.pose);
-    vision::RenderOptions ro;
+    RenderOptions ro;
     ro.seed = options.seed;
     ro.noise = options.noise;
     ro.blur = options.blur;
@@ -349,19 +349,19 @@ int RunRender(const RenderCommandOptions& options, std::ostream& out, std::ostre
     ro.style = style;
     ro.realistic.photographs = std::move(photographs);
     ro.realistic.look_seed = options.seed;
-    const vision::Rendering r =
-        AtFile(options.camera, [&] { return vision::Render(graph, values, camera, ro); });
-    const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
+    const Rendering r =
+        AtFile(options.camera, [&] { return Render(graph, values, camera, ro); });
+    const std::vector<ModelEdge> edges = ModelEdges(graph);
     nlohmann::json truth = {{"width", r.width},
                             {"height", r.height},
                             {"edges", nlohmann::json::array()},
                             {"names", nlohmann::json::array()}};
-    for (const vision::TruthSegment& s : r.truth) {
+    for (const TruthSegment& s : r.truth) {
       truth["edges"].push_back(SegmentJson(s.a.x(), s.a.y(), s.b.x(), s.b.y()));
       truth["names"].push_back(graph.components[edges[s.edge].component].name + "." +
                                edges[s.edge].name);
     }
-    const std::vector<std::uint8_t> png = vision::EncodePng(r.pixels, r.width, r.height);
+    const std::vector<std::uint8_t> png = EncodePng(r.pixels, r.width, r.height);
     OutputFiles files;  // the image and its edges both, or neither
     files.Stage(options.output, std::string(png.begin(), png.end()));
     if (!options.truth.empty()) files.Stage(options.truth, Dump(truth));

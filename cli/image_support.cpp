@@ -128,13 +128,13 @@ Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
   for (char& c : ext) c = static_cast<char>(std::tolower(static_cast<unsigned char>(c)));
   if (ext == ".pos") {
     // ViSP's cMo places the model's frame: every component and point rides on it rigidly.
-    const Rigid3d camera_from_object = importers::ReadVispPose(pose_file);
+    const Rigid3d camera_from_object = ReadVispPose(pose_file);
     Values values = graph.nominal;
     for (Rigid3d& pose : values.poses) pose = camera_from_object * pose;
     for (Eigen::Vector3d& point : values.points) point = camera_from_object * point;
     return values;
   }
-  const PoseSet poses = dsl::ReadPoses(pose_file);
+  const PoseSet poses = ReadPoses(pose_file);
   Values values = graph.nominal;
   ApplyGuess(graph, poses, &values);
   std::set<int> placed;

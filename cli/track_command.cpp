@@ -235,7 +235,7 @@ std::string TrackCsvHeader(const ConstraintGraph& graph, bool fit) {
 }
 
 std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms, bool verified,
-                        const Values& values, const track::TrackedFrame* fit) {
+                        const Values& values, const TrackedFrame* fit) {
   std::string out = fmt::format("{},{:.3f},{}", frame, time_ms, verified ? 1 : 0);
   for (const Component& c : graph.components) {
     if (!c.rigid) continue;
@@ -267,7 +267,7 @@ struct TrackTally {
   // The lost frames' refusals by kind: how many, and the first one's words.
   std::map<int, std::pair<int, std::string>> why_lost;
   std::vector<double> ms;
-  track::FrameTimes sum;
+  FrameTimes sum;
 };
 
 // The summary after the track (on stderr when the track itself went to stdout), and the exit
@@ -319,7 +319,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     Camera camera = LoadAnyCamera(options.camera);
     const bool camera_sized = camera.width > 0 && camera.height > 0;
     const Values initial = PosedModel(graph, options.init);
-    if (geometry::ModelEdges(graph).empty()) {
+    if (ModelEdges(graph).empty()) {
       throw InputError(SourceLocation(options.model),
                        fmt::format("model '{}' has no edges to track (give its components "
                                    "edges, or faces whose sides become edges)",
@@ -327,18 +327,18 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     }
     FrameSource source(options.images);
 
-    track::TrackerOptions tracker_options;
+    TrackerOptions tracker_options;
     tracker_options.max_branches = options.max_branches;
     // Made with the first frame that is read, whose size it needs; frames skipped before it are
     // counted so that the prediction spans them all the same.
-    std::optional<track::Tracker> tracker;
+    std::optional<Tracker> tracker;
     int skipped_before_first = 0;
     std::string csv = TrackCsvHeader(graph, true);
     TrackTally tally;
     std::vector<double>& ms = tally.ms;
     std::vector<int>&lost = tally.lost, &unreadable = tally.unreadable;
     auto& why_lost = tally.why_lost;
-    track::FrameTimes& sum = tally.sum;
+    FrameTimes& sum = tally.sum;
     int &frames = tally.frames, &verified = tally.verified;
     ProgressBar progress(err, options.progress, source.expected());
     for (int frame = 0;; ++frame) {
@@ -380,8 +380,8 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
         tracker.emplace(graph, camera, initial, tracker_options);
         for (int k = 0; k < skipped_before_first; ++k) tracker->Skip();
       }
-      const vision::GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
-      const track::TrackedFrame f = tracker->Track(view);
+      const GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
+      const TrackedFrame f = tracker->Track(view);
       ++frames;
       verified += f.verified ? 1 : 0;
       if (!f.verified) {

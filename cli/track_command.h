@@ -39,10 +39,10 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
 // in the camera frame (NAME.x, .y, .z in metres, NAME.qw, .qx, .qy, .qz), then each joint's
 // value under its name (radians or metres); with the fit (`cfuse track`), the share of the
 // visible outline the image supports and the position sigma in millimetres
-// (track::Verification::share, track::TrackedFrame::position_sigma). `cfuse render --sequence`
+// (Verification::share, TrackedFrame::position_sigma). `cfuse render --sequence`
 // writes its truth so, without the fit.
 std::string TrackCsvHeader(const ConstraintGraph& graph, bool fit = false);
 std::string TrackCsvRow(const ConstraintGraph& graph, int frame, double time_ms, bool verified,
-                        const Values& values, const track::TrackedFrame* fit = nullptr);
+                        const Values& values, const TrackedFrame* fit = nullptr);
 
 }  // namespace cfuse::cli

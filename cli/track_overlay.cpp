@@ -18,8 +18,8 @@ bool Drawable(const Eigen::Vector2d& p) { return p.allFinite() && p.cwiseAbs().m
 
 }  // namespace
 
-cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& graph,
-                      const Camera& camera, const track::TrackedFrame& frame,
+cv::Mat3b DrawOverlay(const GrayView& image, const ConstraintGraph& graph,
+                      const Camera& camera, const TrackedFrame& frame,
                       const OverlayOptions& options) {
   const cv::Mat1b grey(image.height, image.width, const_cast<std::uint8_t*>(image.data),
                        static_cast<size_t>(image.step));
@@ -29,7 +29,7 @@ cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& grap
   if (options.regions) {
     // Each predicted edge's band of ±2σ across it, blended in at 35 %.
     cv::Mat3b shade = out.clone();
-    for (const track::PredictedEdge& e : frame.predicted) {
+    for (const PredictedEdge& e : frame.predicted) {
       const Eigen::Vector2d d = e.b - e.a;
       if (d.norm() == 0 || !Drawable(e.a) || !Drawable(e.b)) continue;
       const Eigen::Vector2d n = Eigen::Vector2d(-d.y(), d.x()).normalized();
@@ -42,16 +42,16 @@ cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& grap
     cv::addWeighted(shade, 0.35, out, 0.65, 0, out);
   }
   if (options.segments) {
-    for (const track::PredictedEdge& e : frame.predicted) {
+    for (const PredictedEdge& e : frame.predicted) {
       if (!e.matched) continue;
       cv::line(out, Fixed(e.segment_a), Fixed(e.segment_b), cv::Scalar(0, 200, 0), 1, cv::LINE_AA,
                kShift);
     }
   }
   const cv::Scalar colour = frame.verified ? cv::Scalar(0, 230, 255) : cv::Scalar(0, 0, 255);
-  const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
-  for (const geometry::ProjectedEdge& e :
-       geometry::VisibleEdges(graph, edges, frame.estimate.mean, camera)) {
+  const std::vector<ModelEdge> edges = ModelEdges(graph);
+  for (const ProjectedEdge& e :
+       VisibleEdges(graph, edges, frame.estimate.mean, camera)) {
     if (!Drawable(e.a) || !Drawable(e.b)) continue;
     cv::line(out, Fixed(e.a), Fixed(e.b), colour, 1, cv::LINE_AA, kShift);
   }

@@ -19,8 +19,8 @@ struct OverlayOptions {
 };
 
 // The overlay as a BGR image of the frame's size.
-cv::Mat3b DrawOverlay(const vision::GrayView& image, const ConstraintGraph& graph,
-                      const Camera& camera, const track::TrackedFrame& frame,
+cv::Mat3b DrawOverlay(const GrayView& image, const ConstraintGraph& graph,
+                      const Camera& camera, const TrackedFrame& frame,
                       const OverlayOptions& options = {});
 
 }  // namespace cfuse::cli

@@ -29,10 +29,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;
   if (size > fuzz::kMaxFuzzInput) return 0;
   const std::string_view text = fuzz::AsText(data, size);
-  fuzz::AcceptedOrRefused([&] { CheckUsable(dsl::ReadCameraFromString(text, "fuzz.yaml")); });
+  fuzz::AcceptedOrRefused([&] { CheckUsable(ReadCameraFromString(text, "fuzz.yaml")); });
   fuzz::AcceptedOrRefused(
-      [&] { CheckUsable(vision::ReadOpenCvCameraFromString(text, "fuzz.yml")); });
+      [&] { CheckUsable(ReadOpenCvCameraFromString(text, "fuzz.yml")); });
   fuzz::AcceptedOrRefused(
-      [&] { CheckUsable(importers::ReadVispCameraFromString(text, "fuzz.xml")); });
+      [&] { CheckUsable(ReadVispCameraFromString(text, "fuzz.xml")); });
   return 0;
 }

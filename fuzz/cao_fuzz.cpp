@@ -7,6 +7,6 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > fuzz::kMaxFuzzInput) return 0;
   static const std::string base = CFUSE_FUZZ_SOURCE_DIR "/tests/data/cao";
   fuzz::AcceptedOrRefused(
-      [&] { (void)importers::ImportCaoFromString(fuzz::AsText(data, size), "fuzz.cao", base); });
+      [&] { (void)ImportCaoFromString(fuzz::AsText(data, size), "fuzz.cao", base); });
   return 0;
 }

@@ -5,16 +5,16 @@
 
 namespace {
 
-void CheckCanonical(const cfuse::dsl::AstNode* node) {
+void CheckCanonical(const cfuse::AstNode* node) {
   using namespace cfuse;
   if (node == nullptr) return;
-  const std::string printed = dsl::ToString(*node);
+  const std::string printed = ToString(*node);
   // The print spaces its operators, so it may outgrow the length bound that the text met.
-  if (printed.size() > static_cast<size_t>(dsl::kMaxExpressionLength)) return;
+  if (printed.size() > static_cast<size_t>(kMaxExpressionLength)) return;
   std::string reprinted;
   try {
-    reprinted = dsl::ToString(*dsl::ParseExpression(printed));
-  } catch (const dsl::ExprSyntaxError& e) {
+    reprinted = ToString(*ParseExpression(printed));
+  } catch (const ExprSyntaxError& e) {
     fuzz::Finding("canonical print does not parse", printed + " : " + e.what());
   }
   if (reprinted != printed) fuzz::Finding("print is not canonical", printed + " -> " + reprinted);
@@ -27,9 +27,9 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > fuzz::kMaxFuzzInput) return 0;
   const std::string_view text = fuzz::AsText(data, size);
   try {
-    const dsl::AstConstraint c = dsl::ParseConstraint(text);
+    const AstConstraint c = ParseConstraint(text);
     for (const auto* node : {&c.lhs, &c.rhs, &c.lo, &c.hi, &c.call}) CheckCanonical(node->get());
-  } catch (const dsl::ExprSyntaxError& e) {
+  } catch (const ExprSyntaxError& e) {
     if (e.offset() < 0 || static_cast<size_t>(e.offset()) > text.size()) {
       fuzz::Finding("syntax error offset outside the text", e.what());
     }
@@ -37,8 +37,8 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
     fuzz::Finding("exception other than ExprSyntaxError", e.what());
   }
   try {
-    CheckCanonical(dsl::ParseExpression(text).get());
-  } catch (const dsl::ExprSyntaxError&) {
+    CheckCanonical(ParseExpression(text).get());
+  } catch (const ExprSyntaxError&) {
   } catch (const std::exception& e) {
     fuzz::Finding("exception other than ExprSyntaxError", e.what());
   }

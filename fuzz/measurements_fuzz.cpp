@@ -12,12 +12,12 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text(fuzz::AsText(data, size));
   MeasurementSet direct, by_yaml;
   const bool accepted =
-      fuzz::AcceptedOrRefused([&] { direct = dsl::ReadMeasurementsFromString(text, "fuzz.json"); });
+      fuzz::AcceptedOrRefused([&] { direct = ReadMeasurementsFromString(text, "fuzz.json"); });
   // Only texts the fast path takes are compared: the others go to the YAML reader anyway.
   const auto read_camera = [](std::string_view) { return Camera(); };
   const bool fast = [&] {
     try {
-      return dsl::ReadPlainJsonMeasurements(text, "fuzz.json", read_camera).has_value();
+      return ReadPlainJsonMeasurements(text, "fuzz.json", read_camera).has_value();
     } catch (const InputError&) {
       return false;
     }
@@ -26,7 +26,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   std::string yaml_refusal;
   const bool accepted_by_yaml = fuzz::AcceptedOrRefused([&] {
     try {
-      by_yaml = dsl::ReadMeasurementsFromString(text + "\n#", "fuzz.json");
+      by_yaml = ReadMeasurementsFromString(text + "\n#", "fuzz.json");
     } catch (const InputError& e) {
       yaml_refusal = e.message();
       throw;
@@ -39,7 +39,7 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (accepted != accepted_by_yaml) {
     fuzz::Finding("the JSON fast path and the YAML reader disagree on acceptance", text);
   }
-  if (accepted && !dsl::SameMeasurements(direct, by_yaml)) {
+  if (accepted && !SameMeasurements(direct, by_yaml)) {
     fuzz::Finding("the JSON fast path and the YAML reader read different measurements", text);
   }
   return 0;

@@ -9,15 +9,15 @@
 
 namespace {
 
-cfuse::dsl::LoadOptions Options() {
-  cfuse::dsl::LoadOptions options;
+cfuse::LoadOptions Options() {
+  cfuse::LoadOptions options;
   options.include_handlers[".urdf"] = [](const std::string& path,
                                          const cfuse::SourceLocation& where) {
-    return cfuse::importers::ImportUrdf(path, where);
+    return cfuse::ImportUrdf(path, where);
   };
   options.include_handlers[".cao"] = [](const std::string& path,
                                         const cfuse::SourceLocation& where) {
-    return cfuse::importers::ImportCao(path, where);
+    return cfuse::ImportCao(path, where);
   };
   return options;
 }
@@ -27,13 +27,13 @@ cfuse::dsl::LoadOptions Options() {
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;
   if (size > fuzz::kMaxFuzzInput) return 0;
-  static const dsl::LoadOptions options = Options();
+  static const LoadOptions options = Options();
   // Relative includes resolve against the examples, so that `include: parts/planar-link.yaml`
   // in a seed reaches a real file.
   static const std::string base = CFUSE_FUZZ_SOURCE_DIR "/examples";
   ConstraintGraph graph;
   const bool accepted = fuzz::AcceptedOrRefused([&] {
-    graph = dsl::LoadModelFromString(fuzz::AsText(data, size), "fuzz.yaml", base, options);
+    graph = LoadModelFromString(fuzz::AsText(data, size), "fuzz.yaml", base, options);
   });
   // The analyses of an accepted model must not fail on it: they are what `check` runs next.
   // Small models only, to keep executions fast (their cost is benchmarked elsewhere).

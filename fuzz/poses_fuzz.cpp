@@ -11,10 +11,10 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   using namespace cfuse;
   if (size > fuzz::kMaxFuzzInput) return 0;
   const std::string_view text = fuzz::AsText(data, size);
-  fuzz::AcceptedOrRefused([&] { (void)dsl::ReadPosesFromString(text, "fuzz.json"); });
-  fuzz::AcceptedOrRefused([&] { (void)dsl::ReadJointValuesFromString(text, "fuzz.json"); });
+  fuzz::AcceptedOrRefused([&] { (void)ReadPosesFromString(text, "fuzz.json"); });
+  fuzz::AcceptedOrRefused([&] { (void)ReadJointValuesFromString(text, "fuzz.json"); });
   fuzz::AcceptedOrRefused([&] {
-    const Rigid3d pose = importers::ReadVispPoseFromString(text, "fuzz.pos");
+    const Rigid3d pose = ReadVispPoseFromString(text, "fuzz.pos");
     if (!pose.translation.allFinite() || !pose.rotation.coeffs().allFinite() ||
         std::abs(pose.rotation.norm() - 1) > 1e-9) {
       fuzz::Finding("accepted ViSP pose", "not a rigid transform");

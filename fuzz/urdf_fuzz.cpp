@@ -11,15 +11,15 @@ extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   if (size > fuzz::kMaxFuzzInput) return 0;
   ConstraintGraph graph;
   if (!fuzz::AcceptedOrRefused([&] {
-        graph = importers::ImportUrdfFromString(fuzz::AsText(data, size), "fuzz.urdf");
+        graph = ImportUrdfFromString(fuzz::AsText(data, size), "fuzz.urdf");
       })) {
     return 0;
   }
   std::string written;
   ConstraintGraph reread;
   try {
-    written = dsl::WriteModel(graph);
-    reread = dsl::LoadModelFromString(written, "imported.yaml", ".");
+    written = WriteModel(graph);
+    reread = LoadModelFromString(written, "imported.yaml", ".");
   } catch (const std::exception& e) {
     fuzz::Finding("an accepted URDF does not round-trip through the DSL", e.what());
   }

@@ -8,6 +8,7 @@
 #include <set>
 
 #include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/kernel/batch_solver.h"
 #include "cfuse/kernel/did_you_mean.h"
@@ -164,7 +165,7 @@ class JointAt : public ResidualFunction {
   JointAt(const Joint& j, double value)
       : ResidualFunction(1, {BlockKind::kPose, BlockKind::kPose}),
         q_(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
-           j.type == JointType::kPrismatic, JointValueFunction::BranchCentre(j)),
+           ModelOf(j.type).VariableIsLength(), JointValueFunction::BranchCentre(j)),
         value_(value) {}
   void Evaluate(std::span<const BlockState<double>> x, double* r) const override {
     q_.Evaluate(x, r);

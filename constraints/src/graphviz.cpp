@@ -5,6 +5,7 @@
 #include <set>
 
 #include "cfuse/constraints/expr.h"
+#include "cfuse/constraints/joint_model.h"
 
 namespace cfuse {
 namespace {
@@ -48,7 +49,7 @@ void WriteDot(const ConstraintGraph& graph, std::ostream& out) {
     std::string label = fmt::format("{}\n{}", j.name, JointTypeName(j.type));
     if (j.limit_constraint >= 0) joint_constraints.insert(j.limit_constraint);
     if (j.limits) {
-      const Quantity q = j.type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+      const Quantity q = ModelOf(j.type).VariableIsLength() ? Quantity::Length() : Quantity::Angle();
       label += fmt::format("\nlimits [{}, {}]", FormatQuantity(j.limits->first, q),
                            FormatQuantity(j.limits->second, q));
     }

@@ -59,6 +59,10 @@ class RevoluteModel : public VariableJointModel {
   Rigid3d Motion(const Eigen::Vector3d& axis, double q) const override {
     return Rigid3d(Eigen::Matrix3d(RotationAboutAxis<double>(axis, q)), Eigen::Vector3d::Zero());
   }
+  double Variable(const Eigen::Vector3d& axis, const Rigid3d& motion) const override {
+    const Eigen::AngleAxisd turned(motion.rotation);
+    return turned.angle() * (turned.axis().dot(axis) < 0 ? -1 : 1);
+  }
   void Twists(const Eigen::Vector3d& axis, const Rigid3d& A, const Rigid3d& /*B*/,
               Eigen::MatrixXd* T, int first) const override {
     RotationAbout(first, A.RotationMatrix() * axis, A.translation, T);
@@ -82,6 +86,9 @@ class PrismaticModel : public VariableJointModel {
   }
   Rigid3d Motion(const Eigen::Vector3d& axis, double q) const override {
     return Rigid3d(Eigen::Quaterniond::Identity(), axis * q);
+  }
+  double Variable(const Eigen::Vector3d& axis, const Rigid3d& motion) const override {
+    return motion.translation.dot(axis);
   }
   void Twists(const Eigen::Vector3d& axis, const Rigid3d& A, const Rigid3d& /*B*/,
               Eigen::MatrixXd* T, int first) const override {

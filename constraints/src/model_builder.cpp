@@ -7,6 +7,7 @@
 
 #include "cfuse/constraints/dof.h"
 #include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/fix_pose.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/constraints/kinds/mimic_joint.h"
@@ -395,7 +396,7 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
                                      fmt::format("{} joint", JointTypeName(spec.type)),
                                      std::move(parts), spec.where);
   }
-  const bool prismatic = spec.type == JointType::kPrismatic;
+  const bool prismatic = ModelOf(spec.type).VariableIsLength();
   // A revolute range of a full turn or more does not restrict the angle.
   if (spec.limits && (prismatic || spec.limits->second - spec.limits->first < 2 * M_PI)) {
     const std::string name = UniqueConstraintName(spec.name + "_limit");
@@ -466,7 +467,7 @@ void ModelBuilder::AddMimic(int follower, int leader, double multiplier, double 
   };
   auto side = [&](const Joint& j) {
     MimicResidual::Side s{JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
-                          j.type == JointType::kPrismatic, 0, 0};
+                          ModelOf(j.type).VariableIsLength(), 0, 0};
     s.parent_slot = slot(j.parent);
     s.child_slot = slot(j.child);
     return s;

@@ -7,7 +7,7 @@
 #include <system_error>
 #include <utility>
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 ExprSyntaxError::ExprSyntaxError(int offset, const std::string& message)
     : std::runtime_error(message), offset_(offset) {}
@@ -614,4 +614,4 @@ std::string ToString(const AstNode& node) {
   return out;
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

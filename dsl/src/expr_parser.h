@@ -34,7 +34,7 @@
 #include <string_view>
 #include <vector>
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 inline constexpr int kMaxExpressionLength = 4096;
 inline constexpr int kMaxExpressionDepth = 64;
@@ -100,4 +100,4 @@ std::unique_ptr<AstNode> ParseExpression(std::string_view text);
 // requires. Meant for messages; re-parsing the result gives the same tree.
 std::string ToString(const AstNode& node);
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

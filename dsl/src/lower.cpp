@@ -12,7 +12,7 @@
 #include "cfuse/kernel/did_you_mean.h"
 #include "units.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 bool IsZeroConstant(const Expr& e) {
@@ -417,4 +417,4 @@ double Lowerer::LowerConstantScalar(std::string_view text, Quantity expected,
   return e->constant.x();
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -8,7 +8,7 @@
 #include "cfuse/kernel/error.h"
 #include "expr_parser.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 // Where byte 0 of an expression string sits in its file. When the string's bytes appear
 // verbatim in the file (a one-line plain or quoted YAML scalar), offsets map exactly;
@@ -47,4 +47,4 @@ class Lowerer {
   TextOrigin origin_;
 };
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -14,7 +14,7 @@
 #include "cfuse/kernel/error.h"
 #include "yaml_document.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 // An iterator over the text that records how far the parser has read, so that an event knows
@@ -399,4 +399,4 @@ bool SameMeasurements(const MeasurementSet& a, const MeasurementSet& b) {
   return true;
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

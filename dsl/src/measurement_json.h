@@ -19,7 +19,7 @@
 
 #include "cfuse/kernel/measurement_set.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 // Why a covariance matrix is refused ("is not symmetric", "is not positive definite"), or
 // nullopt; both readers' test.
@@ -40,4 +40,4 @@ std::optional<MeasurementSet> ReadPlainJsonMeasurements(
 // agreement, as the tests and the measurements fuzz target check it.
 bool SameMeasurements(const MeasurementSet& a, const MeasurementSet& b);
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

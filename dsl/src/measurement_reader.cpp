@@ -10,7 +10,7 @@
 #include "yaml_document.h"
 #include "yaml_numbers.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 const FileKind kMeasurementFile{"measurement", "a measurement file needs 'points'",
@@ -321,4 +321,4 @@ Camera ReadCameraFromString(std::string_view text, const std::string& display_na
   return ReadCameraText(display_name, std::string(text));
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

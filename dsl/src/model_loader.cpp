@@ -11,6 +11,7 @@
 #include <set>
 #include <sstream>
 
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/equality.h"
 #include "cfuse/constraints/model_builder.h"
 #include "cfuse/kernel/did_you_mean.h"
@@ -18,7 +19,7 @@
 #include "units.h"
 #include "yaml_document.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -431,7 +432,7 @@ void Loader::ReadJointMotion(const Document& doc,
                              const YAML::Node& value, const std::string& what,
                              const std::string& type_name, JointSpec* spec) const {
   const bool has_variable = HasJointVariable(spec->type);
-  const Quantity q = spec->type == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+  const Quantity q = ModelOf(spec->type).VariableIsLength() ? Quantity::Length() : Quantity::Angle();
   const YAML::Node axis = Document::Find(entries, "axis");
   if (has_variable || spec->type == JointType::kPlanar) {
     if (!Present(axis)) doc.Fail(value, fmt::format("{} ({}) needs an 'axis'", what, type_name));
@@ -519,7 +520,7 @@ void Loader::ReadMimic(const Document& doc, const PendingJoint& p) {
                                  s.empty() ? "" : fmt::format(" (did you mean '{}'?)", s)));
   }
   auto quantity = [](JointType t) {
-    return t == JointType::kPrismatic ? Quantity::Length() : Quantity::Angle();
+    return ModelOf(t).VariableIsLength() ? Quantity::Length() : Quantity::Angle();
   };
   double multiplier = 1, offset = 0;
   if (YAML::Node m = Document::Find(entries, "multiplier"); Present(m)) {
@@ -713,4 +714,4 @@ ConstraintGraph LoadModelFromString(std::string_view text, const std::string& di
   return loader.Load(display_name, display_name, std::string(text), base_directory);
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -6,7 +6,7 @@
 
 #include "cfuse/constraints/model_builder.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 std::string Num(double v) { return fmt::format("{:.17g}", v == 0 ? 0.0 : v); }
@@ -144,4 +144,4 @@ std::string WriteModel(const ConstraintGraph& graph) {
   return out;
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -5,7 +5,7 @@
 #include "yaml_document.h"
 #include "yaml_numbers.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 const FileKind kPoseFile{"pose", "a pose file needs 'components' (or 'points')", 64u << 20};
@@ -112,4 +112,4 @@ PoseSet ReadPosesFromString(std::string_view text, const std::string& display_na
   return Read(display_name, std::string(text));
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -3,7 +3,7 @@
 #include <array>
 #include <cmath>
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 const std::array<Unit, 5> kUnits = {{
     {"m", 1.0, Quantity::Length()},
@@ -23,4 +23,4 @@ const Unit* FindUnit(std::string_view name) {
 
 const char* KnownUnits() { return "m, cm, mm, rad, deg"; }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -7,7 +7,7 @@
 
 #include "cfuse/constraints/functions.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 struct Unit {
   const char* name;
@@ -20,4 +20,4 @@ const Unit* FindUnit(std::string_view name);
 // "m, cm, mm, rad, deg"
 const char* KnownUnits();
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

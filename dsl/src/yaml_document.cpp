@@ -11,7 +11,7 @@
 #include <sstream>
 #include <vector>
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 namespace fs = std::filesystem;
 
@@ -197,4 +197,4 @@ YAML::Node Document::Parse() const {
   }
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

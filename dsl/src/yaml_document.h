@@ -16,7 +16,7 @@
 #include "cfuse/kernel/error.h"
 #include "lower.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 // What kind of file is being read, for messages and limits.
 struct FileKind {
@@ -122,4 +122,4 @@ class Document {
 
 inline bool Present(const YAML::Node& n) { return n.IsDefined(); }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -4,7 +4,7 @@
 #include <cmath>
 #include <cstdlib>
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 double Number(const Document& doc, const YAML::Node& node, const std::string& what) {
   if (!node.IsScalar()) doc.Fail(node, fmt::format("{} must be a number", what));
@@ -40,4 +40,4 @@ Eigen::VectorXd Numbers(const Document& doc, const YAML::Node& node, int n,
   return v;
 }
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

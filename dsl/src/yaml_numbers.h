@@ -6,7 +6,7 @@
 
 #include "yaml_document.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 // A finite number; NaN and infinity (YAML's .nan and .inf) are refused.
 double Number(const Document& doc, const YAML::Node& node, const std::string& what);
@@ -14,4 +14,4 @@ double Number(const Document& doc, const YAML::Node& node, const std::string& wh
 Eigen::VectorXd Numbers(const Document& doc, const YAML::Node& node, int n,
                         const std::string& what);
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -5,7 +5,7 @@
 #include <algorithm>
 #include <map>
 
-namespace cfuse::geometry {
+namespace cfuse {
 namespace {
 
 constexpr double kNearPlane = 1e-3;  // m: a pinhole camera sees only beyond it
@@ -307,4 +307,4 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
   return out;
 }
 
-}  // namespace cfuse::geometry
+}  // namespace cfuse

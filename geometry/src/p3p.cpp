@@ -8,7 +8,7 @@
 
 #include "cfuse/geometry/undistort.h"
 
-namespace cfuse::geometry {
+namespace cfuse {
 namespace {
 
 // λᵀ B λ = |λ_i y_i − λ_j y_j|² for unit bearings y with y_i·y_j = b.
@@ -181,4 +181,4 @@ std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
   return poses;
 }
 
-}  // namespace cfuse::geometry
+}  // namespace cfuse

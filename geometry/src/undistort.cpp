@@ -1,6 +1,6 @@
 #include "cfuse/geometry/undistort.h"
 
-namespace cfuse::geometry {
+namespace cfuse {
 
 Eigen::Vector2d UndistortPoint(const Camera& camera, const Eigen::Vector2d& pixel) {
   // Written as OpenCV writes it (calib3d/src/undistort.dispatch.cpp), so that every rounding
@@ -22,4 +22,4 @@ Eigen::Vector2d UndistortPoint(const Camera& camera, const Eigen::Vector2d& pixe
   return {x, y};
 }
 
-}  // namespace cfuse::geometry
+}  // namespace cfuse

@@ -17,7 +17,7 @@
 #include "cfuse/kernel/so3.h"
 #include "read_file.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -242,4 +242,4 @@ ConstraintGraph ImportCao(const std::string& path, const SourceLocation& include
   return ImportCaoFromString(text, path, fs::path(path).parent_path().string());
 }
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

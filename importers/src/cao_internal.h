@@ -16,7 +16,7 @@
 #include "cfuse/kernel/error.h"
 #include "cfuse/kernel/rigid3.h"
 
-namespace cfuse::importers::internal {
+namespace cfuse::internal {
 
 // [A-Za-z_][A-Za-z0-9_]*: other characters become '_', a leading digit gets '_' before it, and
 // the DSL's reserved words (model_builder.h) a '_' after.
@@ -149,4 +149,4 @@ class CaoReader {
   std::unordered_set<std::string> point_names_, edge_names_, face_names_, prefixes_;
 };
 
-}  // namespace cfuse::importers::internal
+}  // namespace cfuse::internal

@@ -14,7 +14,7 @@
 #include "cao_internal.h"
 #include "cfuse/importers/cao.h"
 
-namespace cfuse::importers::internal {
+namespace cfuse::internal {
 namespace {
 
 // The sections after the header and the loads, in file order.
@@ -369,4 +369,4 @@ void CaoReader::ReadFacesFromPoints() {
   RequireModelSize(Where(*count_row), "");
 }
 
-}  // namespace cfuse::importers::internal
+}  // namespace cfuse::internal

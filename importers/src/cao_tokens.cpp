@@ -12,7 +12,7 @@
 
 #include "cao_internal.h"
 
-namespace cfuse::importers::internal {
+namespace cfuse::internal {
 
 std::string Identifier(std::string_view name) {
   std::string out(name);
@@ -242,4 +242,4 @@ std::optional<std::string> CaoReader::Parameters(const Row& row, size_t first,
   return name;
 }
 
-}  // namespace cfuse::importers::internal
+}  // namespace cfuse::internal

@@ -7,7 +7,7 @@
 #include <filesystem>
 #include <fstream>
 
-namespace cfuse::importers {
+namespace cfuse {
 
 namespace fs = std::filesystem;
 
@@ -44,4 +44,4 @@ std::string ReadImportedFile(const std::string& path, const SourceLocation& name
   return text;
 }
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

@@ -8,10 +8,10 @@
 
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 
 // `format` names the file in messages ("CAO", "URDF").
 std::string ReadImportedFile(const std::string& path, const SourceLocation& named_at,
                              const char* format, size_t max_bytes);
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

@@ -22,7 +22,7 @@
 #include "read_file.h"
 #include "xml_document.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -620,4 +620,4 @@ ConstraintGraph ImportUrdf(const std::string& path, const SourceLocation& where)
   return ImportUrdfFromString(ReadImportedFile(path, where, "URDF", kMaxUrdfFileBytes), path);
 }
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

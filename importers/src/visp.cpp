@@ -16,7 +16,7 @@
 #include "read_file.h"
 #include "xml_document.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -477,4 +477,4 @@ Rigid3d ReadVispPoseFromString(std::string_view text, const std::string& display
   return Rigid3d(ExpSO3<double>(theta_u), t);
 }
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

@@ -6,7 +6,7 @@
 
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 namespace {
 
 // Where an element opens TinyXML's way (TiXmlNode::Identify): '<' then a letter, '_' or a byte
@@ -87,4 +87,4 @@ void ParseXml(const std::string& file, std::string_view text, TiXmlDocument* doc
                               : fmt::format("not well-formed XML: {}", desc));
 }
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

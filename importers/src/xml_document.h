@@ -13,7 +13,7 @@
 #include <string>
 #include <string_view>
 
-namespace cfuse::importers {
+namespace cfuse {
 
 // Elements inside elements: URDF and ViSP's files nest 3 to 5 deep.
 inline constexpr int kMaxXmlDepth = 256;
@@ -23,4 +23,4 @@ inline constexpr int kMaxXmlDepth = 256;
 // 256 deep". A text without any element parses (doc->RootElement() is null).
 void ParseXml(const std::string& file, std::string_view text, TiXmlDocument* doc);
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

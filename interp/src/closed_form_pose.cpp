@@ -2,7 +2,8 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
-#include <Eigen/SVD>
+
+#include "cfuse/kernel/svd.h"
 
 namespace cfuse {
 namespace {
@@ -23,7 +24,7 @@ bool AbsoluteOrientation(const std::vector<Eigen::Vector3d>& from,
   if (n < 3 || to.size() != from.size()) return false;
   Eigen::Vector3d centre;
   const Eigen::Vector3d s =
-      Eigen::JacobiSVD<Eigen::Matrix3Xd>(Centred(from, &centre)).singularValues();
+      ComputeSvd(Centred(from, &centre).transpose(), SingularVectors::kNone).singular_values;
   if (!(s[1] > 1e-6 * std::max(s[0], 1e-12))) return false;  // collinear
   Eigen::Matrix3Xd a(3, n), b(3, n);
   for (int i = 0; i < n; ++i) {
@@ -54,8 +55,9 @@ bool OrthographicPose(const Camera& camera, const std::vector<Eigen::Vector3d>& 
   p.colwise() -= p_centre;
 
   // The object's principal axes: E (3 x 3, columns by decreasing spread).
-  const Eigen::JacobiSVD<Eigen::Matrix3Xd> shape(X, Eigen::ComputeFullU);
-  const Eigen::Vector3d spread = shape.singularValues();
+  // X = E S Wᵀ, computed as the SVD of Xᵀ = W S Eᵀ.
+  const SingularValueDecomposition shape = ComputeSvd(X.transpose(), SingularVectors::kFullV);
+  const Eigen::Vector3d spread = shape.singular_values;
   if (!(spread[1] > 1e-6 * std::max(spread[0], 1e-12))) return false;  // collinear
   const bool planar = !(spread[2] > 1e-6 * spread[0]);
   if (!planar && n < 4) return false;
@@ -64,10 +66,8 @@ bool OrthographicPose(const Camera& camera, const std::vector<Eigen::Vector3d>& 
   if (!planar) {
     // The affine camera M (2 x 3) with p ≈ M X, then its nearest pair of orthonormal rows.
     const Eigen::Matrix<double, 2, 3> M = p * X.transpose() * (X * X.transpose()).inverse();
-    const Eigen::JacobiSVD<Eigen::Matrix<double, 2, 3>> svd(
-        M, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    const Eigen::Matrix<double, 2, 3> rows =
-        svd.matrixU() * svd.matrixV().leftCols<2>().transpose();
+    const SingularValueDecomposition svd = ComputeSvd(M, SingularVectors::kThinUFullV);
+    const Eigen::Matrix<double, 2, 3> rows = svd.U * svd.V.leftCols<2>().transpose();
     R.row(0) = rows.row(0);
     R.row(1) = rows.row(1);
     R.row(2) = rows.row(0).cross(rows.row(1));
@@ -75,13 +75,13 @@ bool OrthographicPose(const Camera& camera, const std::vector<Eigen::Vector3d>& 
     // In the plane's basis E2 = E.leftCols(2): X = E2 q, p ≈ B q with B = Π R E2 (2 x 2).
     // The columns of R E2 are orthonormal 3-vectors whose first two entries are B's columns;
     // their third entries z follow from unit length and orthogonality, up to one sign.
-    const Eigen::Matrix<double, 3, 2> E2 = shape.matrixU().leftCols<2>();
+    const Eigen::Matrix<double, 3, 2> E2 = shape.V.leftCols<2>();
     const Eigen::Matrix2Xd q = E2.transpose() * X;
     Eigen::Matrix2d B = p * q.transpose() * (q * q.transpose()).inverse();
     // Nearest B whose columns can be completed: singular values clamped to at most 1.
-    Eigen::JacobiSVD<Eigen::Matrix2d> svd(B, Eigen::ComputeFullU | Eigen::ComputeFullV);
-    const Eigen::Vector2d sv = svd.singularValues().cwiseMin(1.0);
-    B = svd.matrixU() * sv.asDiagonal() * svd.matrixV().transpose();
+    const SingularValueDecomposition svd = ComputeSvd(B, SingularVectors::kThinUFullV);
+    const Eigen::Vector2d sv = svd.singular_values.cwiseMin(1.0);
+    B = svd.U * sv.asDiagonal() * svd.V.transpose();
     // Third entries z with |b_j|² + z_j² = 1 and b_1·b_2 + z_1 z_2 = 0: z = (1 - B'B) split by
     // its rank-one factor, i.e. G = I - BᵀB = z zᵀ.
     const Eigen::Matrix2d G = Eigen::Matrix2d::Identity() - B.transpose() * B;

@@ -16,6 +16,7 @@
 #include <unordered_map>
 
 #include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/geometry/p3p.h"
 #include "cfuse/interp/closed_form_pose.h"
 #include "cfuse/kernel/check.h"
@@ -189,7 +190,7 @@ void Interpreter::ImageSeeds(const std::vector<ModelPointRef>& s, int context,
         const std::array<Eigen::Vector2d, 3> image = {
             set_.points[index2_[i]].uv, set_.points[index2_[j]].uv, set_.points[index2_[l]].uv};
         for (const Rigid3d& camera_from_comp :
-             geometry::PosesFromThreeProjections(camera, object, image)) {
+             PosesFromThreeProjections(camera, object, image)) {
           const Eigen::Vector3d q = camera_from_comp * fourth;
           if (!(q.z() > 0)) continue;
           const Eigen::Vector2d uv = camera.Project<double>(q);
@@ -240,7 +241,7 @@ const std::vector<Rigid3d>& Interpreter::JointSweep(int j) const {
   }
   double lower = -M_PI, upper = M_PI;
   int samples = 1;
-  if (joint.type == JointType::kPrismatic) {
+  if (ModelOf(joint.type).VariableIsLength()) {
     if (!joint.limits) return out;
     std::tie(lower, upper) = *joint.limits;
     samples = static_cast<int>(std::ceil((upper - lower) / radius)) + 1;

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/kernel/evaluate.h"
 
@@ -12,7 +13,7 @@ namespace {
 double JointValue(const ConstraintGraph& g, const Joint& j, const Values& values,
                   Eigen::MatrixXd* jacobian) {
   const JointValueFunction q(JointGeometry(j.parent_from_joint, j.child_from_joint, j.axis),
-                             j.type == JointType::kPrismatic, JointValueFunction::BranchCentre(j));
+                             ModelOf(j.type).VariableIsLength(), JointValueFunction::BranchCentre(j));
   const std::vector<int> blocks = {g.components[j.parent].block, g.components[j.child].block};
   Eigen::VectorXd value;
   EvaluateResidual(q, g.blocks, blocks, values, &value, jacobian);

@@ -8,6 +8,7 @@
 #include <optional>
 
 #include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/interp/schedule.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/batch_solver.h"
@@ -50,7 +51,7 @@ Values JointSample(const ConstraintGraph& g, std::mt19937& rng, double extent) {
       const double margin = 0.1 * (j.limits->second - j.limits->first);
       lo = j.limits->first + margin;
       hi = j.limits->second - margin;
-    } else if (j.type == JointType::kPrismatic) {
+    } else if (ModelOf(j.type).VariableIsLength()) {
       lo = -0.1 * extent;
       hi = 0.1 * extent;
     }

@@ -231,7 +231,7 @@ TEST_CASE("cli: a URDF's own link and joint names work as written", "[cli]") {
   const ConstraintGraph g = LoadAnyModel(urdf.string());
   CHECK(g.FindComponent("base_link") == g.FindComponent("base-link"));
   CHECK(g.FindFrame("tool tip"));
-  const MeasurementSet set = dsl::ReadMeasurementsFromString(
+  const MeasurementSet set = ReadMeasurementsFromString(
       "points:\n  - {xyz: [0, 0, 0.1], sigma: 0.001, label: arm.1.origin}\n"
       "  - {xyz: [0, 0, 0.1], sigma: 0.001, label: arm_1.origin}\n",
       "meas.yaml");

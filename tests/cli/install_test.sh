@@ -27,7 +27,7 @@ cat > "$work/consumer/main.cpp" <<'CPP'
 #include <cfuse/dsl/model_loader.h>
 #include <iostream>
 int main(int argc, char** argv) {
-  const cfuse::ConstraintGraph g = cfuse::dsl::LoadModel(argv[1]);
+  const cfuse::ConstraintGraph g = cfuse::LoadModel(argv[1]);
   const cfuse::DofReport r = cfuse::AnalyzeDof(g, g.nominal);
   std::cout << "dof " << r.dof << "\n";
   return r.dof == 11 ? 0 : 1;

@@ -248,7 +248,7 @@ TEST_CASE("cli: track with ViSP's tracker settings and a .pos start", "[cli][tra
   std::ofstream(conf) << "<?xml version=\"1.0\"?>\n<conf>\n  <camera>\n    <px>800</px>\n"
                          "    <py>800</py>\n    <u0>320</u0>\n    <v0>240</v0>\n  </camera>\n"
                          "</conf>\n";
-  const NamedPose start = dsl::ReadPoses((s.frames / "init.json").string()).components.at(0);
+  const NamedPose start = ReadPoses((s.frames / "init.json").string()).components.at(0);
   const Eigen::AngleAxisd turn(start.pose.rotation);
   const Eigen::Vector3d t = start.pose.translation, theta_u = turn.angle() * turn.axis();
   const fs::path pos = s.dir / "cube.0.pos";

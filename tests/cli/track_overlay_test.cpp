@@ -12,16 +12,16 @@
 namespace cfuse::cli {
 namespace {
 
-vision::GrayView View(const vision::Rendering& r) {
+GrayView View(const Rendering& r) {
   return {r.pixels.data(), r.width, r.height, r.width};
 }
 
 TEST_CASE("tracker: overlays draw the model yellow when verified and red when lost", "[tracker]") {
-  const ConstraintGraph graph = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 2, 1);
-  std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
-  track::Tracker tracker(graph, vision::StandardCamera(), sequence[0].truth);
+  const ConstraintGraph graph = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const SequenceSpec spec = StandardSequence(graph, "steady", 2, 1);
+  std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
+  Tracker tracker(graph, StandardCamera(), sequence[0].truth);
   // Pixels of a colour, anti-aliasing allowed for: yellow is strong red and green without
   // blue, red is strong red alone (BGR).
   auto count = [](const cv::Mat3b& image, bool yellow) {
@@ -35,20 +35,20 @@ TEST_CASE("tracker: overlays draw the model yellow when verified and red when lo
     }
     return n;
   };
-  const track::TrackedFrame good = tracker.Track(View(sequence[0].rendering));
+  const TrackedFrame good = tracker.Track(View(sequence[0].rendering));
   REQUIRE(good.verified);
   const cv::Mat3b drawn =
-      DrawOverlay(View(sequence[0].rendering), graph, vision::StandardCamera(), good);
+      DrawOverlay(View(sequence[0].rendering), graph, StandardCamera(), good);
   CHECK(drawn.cols == 640);
   CHECK(drawn.rows == 480);
   CHECK(count(drawn, true) > 500);
   CHECK(count(drawn, false) == 0);
 
   std::fill(sequence[1].rendering.pixels.begin(), sequence[1].rendering.pixels.end(), 90);
-  const track::TrackedFrame lost = tracker.Track(View(sequence[1].rendering));
+  const TrackedFrame lost = tracker.Track(View(sequence[1].rendering));
   REQUIRE_FALSE(lost.verified);
   const cv::Mat3b red =
-      DrawOverlay(View(sequence[1].rendering), graph, vision::StandardCamera(), lost);
+      DrawOverlay(View(sequence[1].rendering), graph, StandardCamera(), lost);
   CHECK(count(red, false) > 500);
   CHECK(count(red, true) == 0);
 }

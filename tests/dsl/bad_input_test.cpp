@@ -21,7 +21,7 @@ namespace {
 
 namespace fs = std::filesystem;
 using cfuse::InputError;
-using cfuse::dsl::LoadModel;
+using cfuse::LoadModel;
 using cfuse::testing::SourcePath;
 
 std::string BadPath(const std::string& name) { return SourcePath("tests/data/bad/" + name); }
@@ -363,7 +363,7 @@ TEST_CASE("bad input: binary, non-UTF-8 and oversized files", "[dsl][bad]") {
   SECTION("a file over 16 MiB") {
     std::string bytes = "points:\n  a: [0, 0, 0]\n";
     const std::string comment = "# " + std::string(1022, 'x') + "\n";
-    while (bytes.size() <= cfuse::dsl::kMaxModelFileBytes) bytes += comment;
+    while (bytes.size() <= cfuse::kMaxModelFileBytes) bytes += comment;
     const std::string path = dir.Write("huge.yaml", bytes);
     CheckError(path, path, 0, 0, "file is larger than the 16 MiB limit for model files");
   }
@@ -387,7 +387,7 @@ TEST_CASE("bad input: binary, non-UTF-8 and oversized files", "[dsl][bad]") {
     CHECK_THAT(e->message(), Catch::Matchers::StartsWith("YAML syntax error: nested more than"));
   }
   SECTION("includes nested more than 16 deep") {
-    const int n = cfuse::dsl::kMaxIncludeDepth + 2;
+    const int n = cfuse::kMaxIncludeDepth + 2;
     for (int i = 0; i < n; ++i) {
       dir.Write("level" + std::to_string(i) + ".yaml",
                 "include: level" + std::to_string(i + 1) + ".yaml\npoints: {p: [0, 0, 0]}\n");
@@ -397,7 +397,7 @@ TEST_CASE("bad input: binary, non-UTF-8 and oversized files", "[dsl][bad]") {
     // top.yaml and level0..level14 are open when level14 asks for a 17th file.
     const std::string deepest =
         (fs::path(top).parent_path() /
-         ("level" + std::to_string(cfuse::dsl::kMaxIncludeDepth - 2) + ".yaml"))
+         ("level" + std::to_string(cfuse::kMaxIncludeDepth - 2) + ".yaml"))
             .lexically_normal()
             .string();
     CheckError(top, deepest, 1, 10, "includes are nested more than 16 deep");

@@ -95,7 +95,7 @@ const Doc& TheDoc() {
 }
 
 cfuse::ConstraintGraph Load(const DocBlock& b) {
-  return cfuse::dsl::LoadModelFromString(b.text, "model.yaml",
+  return cfuse::LoadModelFromString(b.text, "model.yaml",
                                          cfuse::testing::SourcePath("examples"));
 }
 

@@ -13,7 +13,7 @@
 #include "cli/command_support.h"
 #include "test_util.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 TEST_CASE("error paths: camera objects and ROS camera_info files", "[dsl][errors]") {
@@ -103,4 +103,4 @@ TEST_CASE("error paths: JSON output survives a model name that is not UTF-8", "[
 }
 
 }  // namespace
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -6,15 +6,15 @@
 
 namespace {
 
-using cfuse::dsl::AstConstraint;
-using cfuse::dsl::AstNode;
-using cfuse::dsl::ExprSyntaxError;
-using cfuse::dsl::kMaxExpressionDepth;
-using cfuse::dsl::kMaxExpressionLength;
-using cfuse::dsl::ParseConstraint;
-using cfuse::dsl::ParseExpression;
-using cfuse::dsl::Span;
-using cfuse::dsl::ToString;
+using cfuse::AstConstraint;
+using cfuse::AstNode;
+using cfuse::ExprSyntaxError;
+using cfuse::kMaxExpressionDepth;
+using cfuse::kMaxExpressionLength;
+using cfuse::ParseConstraint;
+using cfuse::ParseExpression;
+using cfuse::Span;
+using cfuse::ToString;
 using Kind = AstNode::Kind;
 using Relation = AstConstraint::Relation;
 

@@ -14,7 +14,7 @@
 #include "measurement_json.h"
 #include "test_util.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 TEST_CASE("measurements: JSON and YAML spellings read the same", "[dsl]") {
@@ -213,7 +213,7 @@ TEST_CASE("measurements: malformed JSON gets the YAML reader's message", "[dsl]"
       [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
 }
 
-TEST_CASE("measurements: a million points are read, one more is refused", "[dsl]") {
+TEST_CASE("measurements: a million points are read, one more is refused", "[dsl][heavy]") {
   std::string text = "{\"points\": [";
   text.reserve(27u * kMaxMeasuredPoints + 64);
   for (int i = 0; i < kMaxMeasuredPoints; ++i) text += "{\"xyz\":[0,0,1],\"sigma\":1},";
@@ -411,4 +411,4 @@ TEST_CASE("camera files: every inconsistent ROS camera_info is refused where and
 }
 
 }  // namespace
-}  // namespace cfuse::dsl
+}  // namespace cfuse

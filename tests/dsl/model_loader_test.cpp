@@ -14,7 +14,7 @@
 #include "row_selection.h"
 #include "test_util.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 ConstraintGraph Load(const std::string& yaml) {
@@ -376,4 +376,4 @@ constraints:
 }
 
 }  // namespace
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -6,7 +6,7 @@
 
 #include "test_util.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 namespace {
 
 TEST_CASE("poses: a results file and a truth file read back", "[dsl]") {
@@ -67,4 +67,4 @@ TEST_CASE("poses: every malformed file is refused where and how it should be", "
 }
 
 }  // namespace
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -7,12 +7,12 @@
 #include "cfuse/dsl/model_loader.h"
 #include "test_util.h"
 
-namespace cfuse::geometry {
+namespace cfuse {
 namespace {
 
 // The hinged box's box alone: a 300 x 250 x 200 mm box with its 12 edges and 6 faces.
 ConstraintGraph Box() {
-  return dsl::LoadModelFromString(R"(
+  return LoadModelFromString(R"(
 name: box
 units: {length: mm}
 components:
@@ -117,4 +117,4 @@ TEST_CASE("model edges: the rectangle clip", "[geometry]") {
 }
 
 }  // namespace
-}  // namespace cfuse::geometry
+}  // namespace cfuse

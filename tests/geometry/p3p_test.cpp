@@ -6,7 +6,7 @@
 #include <opencv2/calib3d.hpp>
 #include <random>
 
-namespace cfuse::geometry {
+namespace cfuse {
 namespace {
 
 Eigen::Quaterniond RandomRotation(std::mt19937& rng) {
@@ -146,4 +146,4 @@ TEST_CASE("p3p: poses from three pixels, with and without lens distortion", "[ge
 }
 
 }  // namespace
-}  // namespace cfuse::geometry
+}  // namespace cfuse

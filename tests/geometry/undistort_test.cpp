@@ -8,7 +8,7 @@
 #include <random>
 #include <vector>
 
-namespace cfuse::geometry {
+namespace cfuse {
 namespace {
 
 // How many of `pixels` cfuse and OpenCV undistort to different doubles (compared bit for bit).
@@ -60,4 +60,4 @@ TEST_CASE("undistort: where the model folds back, the distorted point, as OpenCV
 }
 
 }  // namespace
-}  // namespace cfuse::geometry
+}  // namespace cfuse

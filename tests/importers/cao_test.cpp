@@ -22,7 +22,7 @@ namespace {
 namespace fs = std::filesystem;
 
 ConstraintGraph Data(const std::string& name) {
-  return importers::ImportCao(testing::SourcePath("tests/data/cao/" + name));
+  return ImportCao(testing::SourcePath("tests/data/cao/" + name));
 }
 
 const Component& Only(const ConstraintGraph& g) {
@@ -123,7 +123,7 @@ std::string Text(const std::string& data_file) {
 // The InputError importing `path` throws.
 InputError ErrorOf(const std::string& path) {
   try {
-    importers::ImportCao(path);
+    ImportCao(path);
   } catch (const InputError& e) {
     return e;
   }
@@ -254,7 +254,7 @@ TEST_CASE("cao: nested loads, assemblies of loads only, ViSP's older files", "[i
   Write(dir / "sub" / "mid.cao",
         "V1\nload(\"part.cao\", t=[1; 0; 0])  # relative to sub/\n1\n0 0 0\n0\n0\n0\n");
   Write(dir / "top.cao", "V1\nload(\"sub/mid.cao\", tu=[0; 0; 90deg])\n");
-  const ConstraintGraph g = importers::ImportCao((dir / "top.cao").string());
+  const ConstraintGraph g = ImportCao((dir / "top.cao").string());
   const Component& c = Only(g);
   CHECK(c.name == "top");
   REQUIRE(c.points.size() == 9);
@@ -269,18 +269,18 @@ TEST_CASE("cao: nested loads, assemblies of loads only, ViSP's older files", "[i
   // Files that stop after the faces from points (before ViSP had cylinders), or after the
   // cylinders; a stem that is not an identifier.
   const std::string old = "V1\n3\n0 0 0\n1 0 0\n0 1 0\n0\n0\n1\n3 0 1 2\n";
-  CHECK(Only(importers::ImportCaoFromString(old, "2x4-brick.cao")).name == "_2x4_brick");
-  CHECK(importers::ImportCaoFromString(old, "2x4-brick.cao").name == "2x4-brick");
-  CHECK(Only(importers::ImportCaoFromString(old + "0\n\n", "in.cao")).name == "in_");
+  CHECK(Only(ImportCaoFromString(old, "2x4-brick.cao")).name == "_2x4_brick");
+  CHECK(ImportCaoFromString(old, "2x4-brick.cao").name == "2x4-brick");
+  CHECK(Only(ImportCaoFromString(old + "0\n\n", "in.cao")).name == "in_");
   // Numbers: signs, exponents, leading and trailing points; comments after '#' and '//'.
-  const ConstraintGraph numbers = importers::ImportCaoFromString(
+  const ConstraintGraph numbers = ImportCaoFromString(
       "\xEF\xBB\xBFV1 # a header\n3\n1.5e-3 -2 +3E2\n.5 5. -0.25e+1 // ViSP's own comments\n"
       "  # an indented comment\n\n1 0 0\n0\n0\n1\n3 0 1 2\n0\n0\n",
       "numbers.cao");
   CHECK(Only(numbers).points[0].position == Eigen::Vector3d(1.5e-3, -2, 300));
   CHECK(Only(numbers).points[1].position == Eigen::Vector3d(0.5, 5, -2.5));
   // An automatic name another row took explicitly moves aside.
-  const ConstraintGraph named = importers::ImportCaoFromString(
+  const ConstraintGraph named = ImportCaoFromString(
       "V1\n3\n0 0 0\n1 0 0\n0 1 0\n2\n0 1\n1 2 name=l0\n0\n0\n", "named.cao");
   CHECK(Names(Only(named).edges) == std::vector<std::string>{"l0_2", "l0"});
 }
@@ -300,11 +300,11 @@ fixed:
 constraints:
   - distance(cube.p0, table.corner) == nominal
 )");
-  dsl::LoadOptions options;
+  LoadOptions options;
   options.include_handlers[".cao"] = [](const std::string& path, const SourceLocation& where) {
-    return importers::ImportCao(path, where);
+    return ImportCao(path, where);
   };
-  const ConstraintGraph g = dsl::LoadModel((dir / "model.yaml").string(), options);
+  const ConstraintGraph g = LoadModel((dir / "model.yaml").string(), options);
   const int cube = g.FindComponent("cube");
   REQUIRE(cube >= 0);
   const Component& c = g.components[cube];
@@ -318,7 +318,7 @@ constraints:
   Write(dir / "broken.cao", "V1\n1\n0 0\n");
   Write(dir / "bad.yaml", "include: broken.cao\n");
   try {
-    dsl::LoadModel((dir / "bad.yaml").string(), options);
+    LoadModel((dir / "bad.yaml").string(), options);
     FAIL("accepted");
   } catch (const InputError& e) {
     CHECK(e.where().file == (dir / "broken.cao").string());
@@ -354,7 +354,7 @@ TEST_CASE("cao: load cycles, depth, count and missing files are refused at the l
   CHECK(e.where().file == d + "/d15.cao");
   CHECK(e.where().line == 2);
   CHECK_THAT(e.message(), Catch::Matchers::StartsWith("loads nest more than 16 files deep"));
-  const ConstraintGraph deep = importers::ImportCao(d + "/d1.cao");
+  const ConstraintGraph deep = ImportCao(d + "/d1.cao");
   CHECK(Only(deep).FindPoint("d2_d3_d4_d5_d6_d7_d8_d9_d10_d11_d12_d13_d14_d15_d16_p7") >= 0);
 
   std::string many = "V1\n";
@@ -371,14 +371,14 @@ TEST_CASE("cao: load cycles, depth, count and missing files are refused at the l
   CHECK(e.message() == "cannot open '" + d + "/nope.cao': no such file");
 
   // More points than the model may hold, counting the loaded ones.
-  std::string half = fmt::format("V1\n{}\n", importers::kMaxCaoPoints / 2 + 1);
-  for (int k = 0; k <= importers::kMaxCaoPoints / 2; ++k) half += fmt::format("{} 0 0\n", k);
+  std::string half = fmt::format("V1\n{}\n", kMaxCaoPoints / 2 + 1);
+  for (int k = 0; k <= kMaxCaoPoints / 2; ++k) half += fmt::format("{} 0 0\n", k);
   Write(dir / "half.cao", half + "0\n0\n0\n");
   Write(dir / "twice.cao", "V1\nload(\"half.cao\")\nload(\"half.cao\")\n");
   e = ErrorOf(d + "/twice.cao");
   CHECK(e.where().line == 3);
   CHECK(e.message() == fmt::format("with '{}/half.cao' loaded, the model has more than {} points",
-                                   d, importers::kMaxCaoPoints));
+                                   d, kMaxCaoPoints));
 }
 
 TEST_CASE("cao: files that cannot be read", "[importers][cao]") {
@@ -389,7 +389,7 @@ TEST_CASE("cao: files that cannot be read", "[importers][cao]") {
   CHECK(e.where().line == 0);
   CHECK(e.message() == "cannot open: no such file");
   try {
-    importers::ImportCao(missing, SourceLocation("model.yaml", 3, 10));
+    ImportCao(missing, SourceLocation("model.yaml", 3, 10));
     FAIL("accepted");
   } catch (const InputError& ie) {
     CHECK(ie.where().ToString() == "model.yaml:3:10");
@@ -398,7 +398,7 @@ TEST_CASE("cao: files that cannot be read", "[importers][cao]") {
   CHECK(ErrorOf(dir.string()).message() == "is a directory, not a CAO file");
   Write(dir / "binary.cao", std::string("V1\n\0\n", 5));
   CHECK(ErrorOf((dir / "binary.cao").string()).message() == "not a CAO file: it holds binary data");
-  Write(dir / "large.cao", "V1\n#" + std::string(importers::kMaxCaoFileBytes, 'x') + "\n");
+  Write(dir / "large.cao", "V1\n#" + std::string(kMaxCaoFileBytes, 'x') + "\n");
   CHECK(ErrorOf((dir / "large.cao").string()).message() ==
         "file is larger than the 16 MiB limit for CAO files");
   fs::remove(dir / "large.cao");
@@ -536,7 +536,7 @@ TEST_CASE("cao: malformed files are refused at the line and column", "[importers
   for (size_t k = 0; k < bad.size(); ++k) bad[k].text = cases[k].c_str();
   testing::ExpectRefused(
       bad.data(), bad.data() + bad.size(),
-      [](const char* text, const char* name) { importers::ImportCaoFromString(text, name); });
+      [](const char* text, const char* name) { ImportCaoFromString(text, name); });
 }
 
 }  // namespace

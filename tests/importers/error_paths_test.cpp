@@ -30,7 +30,7 @@ struct UrdfCase {
 void ExpectRefused(const UrdfCase& c) {
   INFO(c.xml);
   try {
-    importers::ImportUrdfFromString(c.xml, "bad.urdf");
+    ImportUrdfFromString(c.xml, "bad.urdf");
     FAIL("accepted");
   } catch (const InputError& e) {
     CHECK(e.where().file == "bad.urdf");
@@ -54,14 +54,14 @@ TEST_CASE("error paths: XML nested too deep for TinyXML is refused, not a crash"
   for (int i = 0; i < 100000; ++i) deep += "<link>";
   const std::string urdf = "<robot name=\"r\">\n" + deep;
   try {
-    importers::ImportUrdfFromString(urdf, "deep.urdf");
+    ImportUrdfFromString(urdf, "deep.urdf");
     FAIL("accepted");
   } catch (const InputError& e) {
     CHECK(std::string(e.what()) ==
           "deep.urdf:2:1531: error: elements nested more than 256 deep");  // the 256th <link>
   }
   const std::string camera = "<?xml version=\"1.0\"?>\n<conf>" + deep;
-  CHECK_THROWS_WITH(importers::ReadVispCameraFromString(camera, "deep.xml"),
+  CHECK_THROWS_WITH(ReadVispCameraFromString(camera, "deep.xml"),
                     "deep.xml:2:1537: error: elements nested more than 256 deep");
   // Comments, declarations and empty elements do not count; 256 levels are parsed.
   std::string fine = "<?xml version=\"1.0\"?><!-- <a> <b> -->\n<conf>";
@@ -69,7 +69,7 @@ TEST_CASE("error paths: XML nested too deep for TinyXML is refused, not a crash"
   fine += "<camera/>";
   for (int i = 0; i < 255; ++i) fine += "</a>";
   fine += "</conf>\n";
-  CHECK_THROWS_WITH(importers::ReadVispCameraFromString(fine, "fine.xml"),
+  CHECK_THROWS_WITH(ReadVispCameraFromString(fine, "fine.xml"),
                     Catch::Matchers::Contains("these ViSP tracker settings have no <camera>"));
 }
 
@@ -147,7 +147,7 @@ TEST_CASE("error paths: a CAO load whose prefixed names clash with another's",
   std::ofstream(dir / "x.cao") << "V1\nload(\"y.cao\")\n0\n0\n0\n0\n0\n";
   std::ofstream(dir / "main.cao") << "V1\nload(\"x.cao\")\nload(\"x_y.cao\")\n0\n0\n0\n0\n0\n";
   try {
-    importers::ImportCao((dir / "main.cao").string());
+    ImportCao((dir / "main.cao").string());
     FAIL("accepted");
   } catch (const InputError& e) {
     CHECK(e.where().file == (dir / "main.cao").string());

@@ -47,7 +47,7 @@ TEST_CASE("urdf: forward kinematics of every real robot matches DART's to 1e-9",
   REQUIRE(robots.size() >= 9);
   int compared = 0;
   for (const std::string& robot : robots) {
-    const ConstraintGraph g = importers::ImportUrdf(dir + "/" + robot + ".urdf");
+    const ConstraintGraph g = ImportUrdf(dir + "/" + robot + ".urdf");
     const nlohmann::json reference = ReadJson(dir + "/" + robot + ".fk.json");
     for (const nlohmann::json& config : reference["configurations"]) {
       // Every movable joint's value as DART used it; mimic and locked joints too, which the
@@ -83,7 +83,7 @@ TEST_CASE("urdf: check's DOF is what the joints imply, for every real robot", "[
   const std::string dir = RobotsDir();
   if (dir.empty()) return;
   for (const std::string& robot : Robots(dir)) {
-    const ConstraintGraph g = importers::ImportUrdf(dir + "/" + robot + ".urdf");
+    const ConstraintGraph g = ImportUrdf(dir + "/" + robot + ".urdf");
     const nlohmann::json reference = ReadJson(dir + "/" + robot + ".fk.json");
     int movable = 0, mimic = 0, locked = 0;
     for (const nlohmann::json& j : reference["joints"]) {
@@ -108,8 +108,8 @@ TEST_CASE("urdf: every real robot imported as a DSL model keeps its DOF and kine
   const std::string dir = RobotsDir();
   if (dir.empty()) return;
   for (const std::string& robot : Robots(dir)) {
-    const ConstraintGraph g = importers::ImportUrdf(dir + "/" + robot + ".urdf");
-    const ConstraintGraph back = dsl::LoadModelFromString(dsl::WriteModel(g), robot + ".yaml", ".");
+    const ConstraintGraph g = ImportUrdf(dir + "/" + robot + ".urdf");
+    const ConstraintGraph back = LoadModelFromString(WriteModel(g), robot + ".yaml", ".");
     CHECK(AnalyzeDof(back, back.nominal).dof == AnalyzeDof(g, g.nominal).dof);
     const nlohmann::json reference = ReadJson(dir + "/" + robot + ".fk.json");
     for (const nlohmann::json& config : reference["configurations"]) {

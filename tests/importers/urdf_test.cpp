@@ -22,10 +22,10 @@ namespace {
 namespace fs = std::filesystem;
 
 ConstraintGraph Arm() {
-  return importers::ImportUrdf(testing::SourcePath("tests/data/urdf/arm.urdf"));
+  return ImportUrdf(testing::SourcePath("tests/data/urdf/arm.urdf"));
 }
 ConstraintGraph Mobile() {
-  return importers::ImportUrdf(testing::SourcePath("tests/data/urdf/mobile.urdf"));
+  return ImportUrdf(testing::SourcePath("tests/data/urdf/mobile.urdf"));
 }
 
 Eigen::Vector3d PointOf(const ConstraintGraph& g, const std::string& component,
@@ -205,8 +205,8 @@ TEST_CASE("urdf: the model import writes reads back with the same DOF and kinema
   std::uniform_real_distribution<double> u(-1, 1);
   for (const ConstraintGraph& g : {Arm(), Mobile()}) {
     INFO(g.name);
-    const std::string text = dsl::WriteModel(g);
-    const ConstraintGraph back = dsl::LoadModelFromString(text, g.name + ".yaml", ".");
+    const std::string text = WriteModel(g);
+    const ConstraintGraph back = LoadModelFromString(text, g.name + ".yaml", ".");
     CHECK(AnalyzeDof(back, back.nominal).dof == AnalyzeDof(g, g.nominal).dof);
     CHECK(back.joints.size() == g.joints.size());
     for (int trial = 0; trial < 5; ++trial) {
@@ -247,11 +247,11 @@ constraints:
   - distance(slider.origin, base.origin) >= 100 mm
 )";
   std::ofstream(dir / "model.yaml") << model;
-  dsl::LoadOptions options;
+  LoadOptions options;
   options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
-    return importers::ImportUrdf(path, where);
+    return ImportUrdf(path, where);
   };
-  const ConstraintGraph g = dsl::LoadModel((dir / "model.yaml").string(), options);
+  const ConstraintGraph g = LoadModel((dir / "model.yaml").string(), options);
   CHECK((PointOf(g, "base", "m_base") - Eigen::Vector3d(0.1, 0, 0)).norm() < 1e-15);
   // On the plate (0.1 up, turned 0.3 rad): expressed in base's frame.
   const Eigen::Vector3d plate_marker =
@@ -273,7 +273,7 @@ constraints:
   std::ofstream(dir / "bad.yaml")
       << "include: arm.urdf\nmarkers:\n  m: {link: uper, xyz: [0, 0, 0]}\n";
   try {
-    dsl::LoadModel((dir / "bad.yaml").string(), options);
+    LoadModel((dir / "bad.yaml").string(), options);
     FAIL("accepted");
   } catch (const InputError& e) {
     CHECK(e.where().line == 3);
@@ -349,7 +349,7 @@ TEST_CASE("urdf: malformed files are refused at the element", "[importers]") {
   for (const Case& c : cases) {
     INFO(c.xml);
     try {
-      importers::ImportUrdfFromString(c.xml, "bad.urdf");
+      ImportUrdfFromString(c.xml, "bad.urdf");
       FAIL("accepted");
     } catch (const InputError& e) {
       CHECK(e.where().file == "bad.urdf");
@@ -366,7 +366,7 @@ TEST_CASE("urdf: malformed files are refused at the element", "[importers]") {
       "<joint name=\"j\" type=\"continuous\"><parent link=\"b\"/><child link=\"c\"/>"
       "<mimic joint=\"f\"/></joint></robot>";
   try {
-    importers::ImportUrdfFromString(mimic_fixed, "bad.urdf");
+    ImportUrdfFromString(mimic_fixed, "bad.urdf");
     FAIL("accepted");
   } catch (const InputError& e) {
     CHECK(e.where().line == 3);
@@ -374,9 +374,9 @@ TEST_CASE("urdf: malformed files are refused at the element", "[importers]") {
     CHECK_THAT(e.message(), Catch::Matchers::StartsWith("mimics joint 'f', which has no variable"));
   }
   // Files: missing, a directory, binary.
-  CHECK_THROWS_WITH(importers::ImportUrdf("no/such.urdf"),
+  CHECK_THROWS_WITH(ImportUrdf("no/such.urdf"),
                     Catch::Matchers::StartsWith("no/such.urdf: error: cannot open"));
-  CHECK_THROWS_WITH(importers::ImportUrdf(fs::temp_directory_path().string()),
+  CHECK_THROWS_WITH(ImportUrdf(fs::temp_directory_path().string()),
                     Catch::Matchers::Contains("is a directory"));
 }
 

@@ -21,7 +21,7 @@
 #include "cfuse/importers/cao.h"
 #include "test_util.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -439,4 +439,4 @@ TEST_CASE("visp: Castle-simu's chateau and cube assembled as ViSP's own test doe
 }
 
 }  // namespace
-}  // namespace cfuse::importers
+}  // namespace cfuse

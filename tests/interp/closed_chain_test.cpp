@@ -1,6 +1,6 @@
 // Closed chains everywhere a configuration is made: forward kinematics closing a loop with the
-// given joints held, sampling on the constraint surface, rendered sequences that keep every
-// constraint, and joints not given at the model's own `position`.
+// given joints held, sampling on the constraint surface, and joints not given at the model's own
+// `position` (rendered sequences: tests/vision/sequence_test.cpp).
 #include <catch2/catch.hpp>
 #include <cmath>
 
@@ -10,7 +10,6 @@
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
-#include "cfuse/vision/sequence.h"
 #include "test_util.h"
 
 namespace cfuse {
@@ -26,7 +25,7 @@ double LargestEquality(const ConstraintGraph& g, const Values& values) {
   return largest;
 }
 
-ConstraintGraph FourBar() { return dsl::LoadModel(testing::SourcePath("examples/four-bar.yaml")); }
+ConstraintGraph FourBar() { return LoadModel(testing::SourcePath("examples/four-bar.yaml")); }
 
 TEST_CASE("closed chains: forward kinematics leaves the loop open, CloseLoops closes it",
           "[interp]") {
@@ -47,7 +46,7 @@ TEST_CASE("closed chains: forward kinematics leaves the loop open, CloseLoops cl
 }
 
 TEST_CASE("closed chains: joints not given are at the model's position", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const std::map<std::string, double> q = CompleteJointValues(g, {});
   CHECK(q.at("hinge") == Approx(35 * M_PI / 180));
 }
@@ -55,7 +54,7 @@ TEST_CASE("closed chains: joints not given are at the model's position", "[inter
 TEST_CASE("closed chains: joint samples of a closed linkage meet every constraint", "[interp]") {
   for (const char* file : {"examples/four-bar.yaml", "examples/folding-ruler.yaml"}) {
     CAPTURE(file);
-    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
     for (unsigned seed = 1; seed <= 30; ++seed) {
       CAPTURE(seed);
       SimulateOptions options;
@@ -74,7 +73,7 @@ TEST_CASE("closed chains: joint samples of a closed linkage meet every constrain
 // moves its top plate relative to the base, inside every range.
 TEST_CASE("closed chains: a model without joint variables is sampled off its nominal geometry",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/stewart-platform.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/stewart-platform.yaml"));
   const int base = g.FindComponent("base"), top = g.FindComponent("top");
   for (unsigned seed = 1; seed <= 5; ++seed) {
     CAPTURE(seed);
@@ -89,15 +88,6 @@ TEST_CASE("closed chains: a model without joint variables is sampled off its nom
     Eigen::VectorXd r;
     EvaluateConstraints(g, sim.truth, &r, nullptr);
     CHECK(r.cwiseAbs().maxCoeff() < 1e-9);
-  }
-}
-
-TEST_CASE("closed chains: a rendered sequence keeps the loop closed", "[interp]") {
-  const ConstraintGraph g = FourBar();
-  const vision::SequenceSpec spec = vision::StandardSequence(g, "steady", 40);
-  for (int i = 0; i < 40; i += 3) {
-    CAPTURE(i);
-    CHECK(LargestEquality(g, vision::SequencePose(g, spec, i)) < 1e-9);
   }
 }
 

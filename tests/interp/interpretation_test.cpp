@@ -31,7 +31,7 @@ Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion
           const std::optional<Camera>& camera = std::nullopt) {
   Tally t;
   InterpretOptions options;
-  options.solve.pose_from_projections = &vision::PoseFromProjections;
+  options.solve.pose_from_projections = &PoseFromProjections;
   for (int i = 0; i < trials; ++i) {
     SimulateOptions so;
     so.seed = 100 + i;
@@ -62,7 +62,7 @@ Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion
 }
 
 TEST_CASE("interpret: the lamp's true matches among clutter", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   const Tally clean = Run(g, 10, 0, 0);
   CHECK(clean.all_right >= 9);
   const Tally cluttered = Run(g, 20, 1, 0);
@@ -84,7 +84,7 @@ TEST_CASE("interpret: the lamp's true matches among clutter", "[interp]") {
 // matched once p12 has been placed from its other neighbours.
 TEST_CASE("interpret: a point blind behind an occluded hub is postponed, not branched on",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   long nodes_postponed = 0, nodes_branched = 0;
   int right = 0;
   const int trials = 8;
@@ -115,8 +115,8 @@ TEST_CASE("interpret: a point blind behind an occluded hub is postponed, not bra
   CHECK(nodes_postponed < nodes_branched);
 }
 
-TEST_CASE("interpret: the hinged box from 3D points and from one camera", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+TEST_CASE("interpret: the hinged box from 3D points and from one camera", "[interp][heavy]") {
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const Tally points = Run(g, 20, 2, 0.1);
   INFO("3D, clutter 2, occlusion 10 %: all right in " << points.all_right << " of 20");
   CHECK(points.all_right >= 18);
@@ -131,7 +131,7 @@ TEST_CASE("interpret: the hinged box from 3D points and from one camera", "[inte
 }
 
 TEST_CASE("interpret: the result is estimated from the matches and names the search", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   SimulateOptions so;
   so.seed = 7;
   so.clutter = 1;
@@ -152,7 +152,7 @@ TEST_CASE("interpret: the result is estimated from the matches and names the sea
 // Matches that any points would fit are no answer: three clutter points matched to a pair of
 // scissors seen by one camera fit exactly and leave its pose to the prior.
 TEST_CASE("interpret: matches that cannot tell the object from clutter are refused", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   SimulateOptions so;
   so.seed = 3;
   so.clutter = 1;
@@ -189,7 +189,7 @@ TEST_CASE("interpret: matches that cannot tell the object from clutter are refus
 }
 
 TEST_CASE("interpret: degenerate inputs end in a clear status within the budget", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   SECTION("no measurements") {
     const Interpretation in = Interpret(g, MeasurementSet{});
     CHECK(in.matched == 0);
@@ -278,7 +278,7 @@ bool OffersTruth(const Simulation& sim, const Solution& solution) {
 TEST_CASE("interpret: a symmetric object's equally good interpretations are alternatives",
           "[interp]") {
   const ConstraintGraph g =
-      dsl::LoadModel(testing::SourcePath("examples/stewart-platform.yaml"));
+      LoadModel(testing::SourcePath("examples/stewart-platform.yaml"));
   SimulateOptions so;
   so.seed = 109;  // one of the trials bench/answer_sweep answered turned by a third
   so.sample_joints = true;
@@ -320,8 +320,8 @@ Simulation ArticulatedAmongClutter(const ConstraintGraph& g, unsigned seed) {
 // A chain of identical segments (the folding ruler) among as many clutter points: a seed on
 // the first segment says little about where the others swung, so it must not be ruled out by
 // the points the nominal fold angles miss. Every answer accepted is right.
-TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
+TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[interp][heavy]") {
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
   int accepted = 0, wrong = 0;
   for (unsigned seed : {100u, 103u, 107u, 108u}) {  // each answered 270-400 mm off before
     const Simulation sim = ArticulatedAmongClutter(g, seed);
@@ -342,8 +342,9 @@ TEST_CASE("interpret: a folding ruler among clutter is right or refused", "[inte
 // neighbour left unmatched: the estimate twists the segment to fit, and re-association under
 // it alone never finds the corner's own measurement. Both trials were accepted that way, 9 and
 // 20 mm off.
-TEST_CASE("interpret: a segment matched twisted about its long axis is set right", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
+TEST_CASE("interpret: a segment matched twisted about its long axis is set right",
+          "[interp][heavy]") {
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
   for (unsigned seed : {111u, 124u}) {
     const Simulation sim = ArticulatedAmongClutter(g, seed);
     const Interpretation in = Interpret(g, sim.measurements);
@@ -358,7 +359,7 @@ TEST_CASE("interpret: a segment matched twisted about its long axis is set right
 // p = 0.004, 58 mm off). The blades are mirror images, so turned over with the blades
 // exchanged the scissors fit exactly as well: the truth is the answer or an alternative.
 TEST_CASE("interpret: scissors opened to their limit are matched whole", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/scissors.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/scissors.yaml"));
   const Simulation sim = ArticulatedAmongClutter(g, 128);
   const Rigid3d a_from_b = sim.truth.poses[0].Inverse() * sim.truth.poses[1];
   REQUIRE(Eigen::AngleAxisd(a_from_b.rotation).angle() > 69.9 * M_PI / 180);
@@ -377,7 +378,7 @@ TEST_CASE("interpret: scissors opened to their limit are matched whole", "[inter
 // uncertainty places the other blade; the mirror-image reading is offered besides.
 TEST_CASE("interpret: scissors seeded on a thin blade are matched whole, both readings said",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/scissors.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/scissors.yaml"));
   const Simulation sim = ArticulatedAmongClutter(g, 123);
   const Interpretation in = Interpret(g, sim.measurements);
   CHECK(in.Refusal().empty());
@@ -392,13 +393,13 @@ TEST_CASE("interpret: scissors seeded on a thin blade are matched whole, both re
 // them predicted before they were seen, 0.1 to 0.6 m off. Such an answer is refused; the same
 // scissors from 3D points (every match after the seed predicted) are not.
 TEST_CASE("interpret: an image answer with too few predicted matches is refused", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/scissors.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/scissors.yaml"));
   SimulateOptions so;
   so.sample_joints = true;
   so.clutter = 1;
-  so.camera = vision::StandardCamera();
+  so.camera = StandardCamera();
   InterpretOptions options;
-  options.solve.pose_from_projections = &vision::PoseFromProjections;
+  options.solve.pose_from_projections = &PoseFromProjections;
   for (unsigned seed : {113u, 114u, 140u}) {
     INFO("seed " << seed);
     so.seed = seed;
@@ -421,15 +422,15 @@ TEST_CASE("interpret: an image answer with too few predicted matches is refused"
 // starts the truth's minimum, which fits better.
 TEST_CASE("solve: a near-planar object from one image is started at its answer's mirror image",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/scissors.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/scissors.yaml"));
   SimulateOptions so;
   so.seed = 101;
   so.sample_joints = true;
   so.labels = true;
-  so.camera = vision::StandardCamera();
+  so.camera = StandardCamera();
   const Simulation sim = Simulate(g, so);
   SolveOptions options;
-  options.pose_from_projections = &vision::PoseFromProjections;
+  options.pose_from_projections = &PoseFromProjections;
   options.reject_outliers = true;
   const Solution solution = Solve(g, sim.measurements, options);
   REQUIRE(solution.accepted());
@@ -445,7 +446,7 @@ TEST_CASE("solve: a near-planar object from one image is started at its answer's
 TEST_CASE("interpret: a model made rigid by a right angle and coplanarity is seeded",
           "[interp]") {
   const ConstraintGraph g =
-      dsl::LoadModel(testing::SourcePath("tests/data/models/right-triangle.yaml"));
+      LoadModel(testing::SourcePath("tests/data/models/right-triangle.yaml"));
   for (unsigned seed : {1u, 2u, 3u}) {
     SimulateOptions so;
     so.seed = seed;

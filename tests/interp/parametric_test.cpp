@@ -53,7 +53,7 @@ ConstraintGraph LoadText(const std::string& text, const std::string& name) {
   const fs::path path = fs::temp_directory_path() / "cfuse_parametric_test" / name;
   fs::create_directories(path.parent_path());
   std::ofstream(path) << text;
-  return dsl::LoadModel(path.string());
+  return LoadModel(path.string());
 }
 
 // Labelled 3D measurements of every model point at `truth`, with noise `sigma`.
@@ -244,9 +244,9 @@ TEST_CASE("parametric: agrees with constraint fusion on the same data") {
 }
 
 TEST_CASE("parametric: models without a parametric form are refused by name") {
-  const ConstraintGraph lamp = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph lamp = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   CHECK_THAT(ParametricUnsupported(lamp), Catch::Matchers::Contains("is a single point"));
-  const ConstraintGraph scissors = dsl::LoadModel(testing::SourcePath("examples/scissors.yaml"));
+  const ConstraintGraph scissors = LoadModel(testing::SourcePath("examples/scissors.yaml"));
   CHECK_THAT(ParametricUnsupported(scissors), Catch::Matchers::Contains("constraint 'opening'") &&
                                                   Catch::Matchers::Contains("is not a joint"));
   const ConstraintGraph loop = LoadText(R"(
@@ -273,9 +273,9 @@ constraints:
     CHECK(e.where().file == lamp.source);
   }
   // The planar arm's reach limit is a distance between points; the hinged box has a form.
-  CHECK_THAT(ParametricUnsupported(dsl::LoadModel(testing::SourcePath("examples/planar-arm.yaml"))),
+  CHECK_THAT(ParametricUnsupported(LoadModel(testing::SourcePath("examples/planar-arm.yaml"))),
              Catch::Matchers::Contains("constraint 'reach' (distance <=)"));
-  CHECK(ParametricUnsupported(dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml")))
+  CHECK(ParametricUnsupported(LoadModel(testing::SourcePath("examples/hinged-box.yaml")))
             .empty());
 }
 

@@ -13,7 +13,7 @@ namespace cfuse {
 namespace {
 
 ConstraintGraph Model(const std::string& text) {
-  return dsl::LoadModelFromString(text, "model.yaml", ".");
+  return LoadModelFromString(text, "model.yaml", ".");
 }
 
 // The names matched, level by level, and the constraints fused before each.
@@ -84,13 +84,13 @@ TEST_CASE("plan: the lamp and every example keep §6's invariants", "[interp]") 
   for (const char* file : {"examples/lamp.yaml", "examples/hinged-box.yaml",
                            "examples/scissors.yaml", "examples/planar-arm.yaml"}) {
     INFO(file);
-    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
     for (bool image : {false, true}) CheckInvariants(g, PlanFusion(g, image));
   }
 }
 
 TEST_CASE("plan: the lamp starts from its base triangle, a pose in closed form", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   const FusionPlan plan = PlanFusion(g);
   REQUIRE(plan.seed_levels == 3);
   CHECK_FALSE(plan.seed_is_rigid_component);

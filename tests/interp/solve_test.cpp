@@ -77,7 +77,7 @@ Values Moved(const ConstraintGraph& g, const Rigid3d& pose) {
 
 TEST_CASE("solve: the lamp at poses all over SO(3): constraints met, error at noise level",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   for (unsigned seed = 1; seed <= 40; ++seed) {
     std::mt19937 rng(seed);
     const Values truth = Moved(g, RandomPose(rng, 1.5));
@@ -96,7 +96,7 @@ TEST_CASE("solve: the lamp at poses all over SO(3): constraints met, error at no
 
 TEST_CASE("solve: an occluded point is estimated through the constraints, less certainly",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   std::mt19937 rng(3);
   const Values truth = Moved(g, RandomPose(rng, 1.5));
   std::mt19937 rng_a(4), rng_b(4);
@@ -114,7 +114,7 @@ TEST_CASE("solve: an occluded point is estimated through the constraints, less c
 // the wrist): started where the rigid guess puts them, their constraints threw the sequential
 // pass far off; placed first where their constraints to known points hold best, it converges.
 TEST_CASE("solve: a lamp with a fifth of its points occluded converges from no guess", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   int converged = 0;
   const int trials = 20;
   for (int i = 0; i < trials; ++i) {
@@ -130,11 +130,11 @@ TEST_CASE("solve: a lamp with a fifth of its points occluded converges from no g
 }
 
 TEST_CASE("solve: the hinged box from image points alone (§7), poses all over SO(3)", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   Camera camera = testing::Pinhole();
   camera.distortion[0] = -0.05;
   SolveOptions options;
-  options.pose_from_projections = &vision::PoseFromProjections;
+  options.pose_from_projections = &PoseFromProjections;
   int solved = 0;
   for (unsigned seed = 1; seed <= 30; ++seed) {
     std::mt19937 rng(seed);
@@ -157,7 +157,7 @@ TEST_CASE("solve: the hinged box from image points alone (§7), poses all over S
 
 TEST_CASE("solve: the hinged box from an orthographic view alone, poses all over SO(3)",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   Camera camera;
   camera.model = Camera::Model::kOrthographic;
   camera.scale = 1000;  // pixels per metre
@@ -189,7 +189,7 @@ TEST_CASE("solve: the hinged box from an orthographic view alone, poses all over
 TEST_CASE("solve: a supplied guess starts what no closed form can", "[interp]") {
   // The hinged box seen by a pinhole camera, with no PnP solver wired in: only a guess can
   // put it in front of the camera.
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const Camera camera = testing::Pinhole();
   int solved = 0;
   for (unsigned seed = 1; seed <= 10; ++seed) {
@@ -246,7 +246,7 @@ Values ElbowAt(const ConstraintGraph& g, double angle, const Rigid3d& pose) {
 TEST_CASE("solve: a Gauss-Newton pass stays exact when the start is far off", "[interp]") {
   // Each link's start is 0.5 rad and 10 cm off: the passes still meet the joint to 1e-8 of
   // the model's size (moving the chart after each update stalled such starts at 1e-4).
-  const ConstraintGraph g = dsl::LoadModelFromString(kElbow, "elbow.yaml", ".");
+  const ConstraintGraph g = LoadModelFromString(kElbow, "elbow.yaml", ".");
   for (unsigned seed = 1; seed <= 10; ++seed) {
     std::mt19937 rng(seed);
     std::normal_distribution<double> n(0, 1);
@@ -288,7 +288,7 @@ TEST_CASE("solve: a limit held at a start outside it lets go when the data pull 
   // Truths inside [0, 60] deg, near the lower limit; starts outside it, where the limit's slack
   // is 0 and its linearisation an equality that would hold the joint at 0 for good without the
   // active-set test.
-  const ConstraintGraph g = dsl::LoadModelFromString(kElbow, "elbow.yaml", ".");
+  const ConstraintGraph g = LoadModelFromString(kElbow, "elbow.yaml", ".");
   const Joint& j = g.joints[0];
   int right = 0, trials = 0;
   for (unsigned seed = 1; seed <= 20; ++seed) {
@@ -321,10 +321,10 @@ TEST_CASE("solve: an estimate held on a limit does not claim the limit known to 
   // Truths 1 degree beyond the lower limit: the estimate stays on the limit. Its joint angle's
   // variance is the data's, as without the limit, not the 0 of a boundary held as an equality
   // (the truth of a real object is then anywhere inside).
-  const ConstraintGraph limited = dsl::LoadModelFromString(kElbow, "elbow.yaml", ".");
+  const ConstraintGraph limited = LoadModelFromString(kElbow, "elbow.yaml", ".");
   std::string wide = kElbow;
   wide.replace(wide.find("limits: [0, 60]"), 15, "limits: [-60, 60]");
-  const ConstraintGraph unlimited = dsl::LoadModelFromString(wide, "elbow.yaml", ".");
+  const ConstraintGraph unlimited = LoadModelFromString(wide, "elbow.yaml", ".");
   for (unsigned seed = 1; seed <= 5; ++seed) {
     std::mt19937 rng(seed);
     const Values truth = ElbowAt(limited, -1 * M_PI / 180, RandomPose(rng, 1.0));
@@ -349,7 +349,7 @@ TEST_CASE("solve: an estimate held on a limit does not claim the limit known to 
 }
 
 TEST_CASE("solve: a guess naming what the model lacks is an error at its entry", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   std::mt19937 rng(1);
   const MeasurementSet set = Measure3d(g, g.nominal, rng, 0.002);
   SolveOptions options;
@@ -364,8 +364,8 @@ TEST_CASE("solve: a guess naming what the model lacks is an error at its entry",
 }
 
 TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  const MeasurementSet set = dsl::ReadMeasurementsFromString(
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const MeasurementSet set = ReadMeasurementsFromString(
       "points:\n  - {xyz: [0, 0, 1], sigma: 0.01, label: box.c000}\n"
       "  - {xyz: [0, 0, 1], sigma: 0.01, label: box.c999}\n",
       "meas.yaml");
@@ -377,7 +377,7 @@ TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "
           "meas.yaml:3:5: points[1]: error: unknown label 'box.c999': no such model point");
   }
   // A typo gets the closest label; interpret refuses it as well, though labels do not steer it.
-  const MeasurementSet typo = dsl::ReadMeasurementsFromString(
+  const MeasurementSet typo = ReadMeasurementsFromString(
       "points:\n  - {xyz: [0, 0, 1], sigma: 0.01, label: bx.c010}\n", "meas.yaml");
   const std::string expected =
       "meas.yaml:2:5: points[0]: error: unknown label 'bx.c010': no such model point (did you "
@@ -388,7 +388,7 @@ TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "
 
 TEST_CASE("solve: measurements in millimetres are refused at the file, with the likely unit",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   std::mt19937 rng(2);
   MeasurementSet set = Measure3d(g, g.nominal, rng, 0.002);
   set.source = "mm.json";
@@ -462,9 +462,9 @@ std::pair<double, double> ChiSquare99(double k) {
 }
 
 TEST_CASE("solve: NEES over 200 simulated lamps and 200 hinged boxes lies in its 99% interval",
-          "[interp]") {
+          "[interp][heavy]") {
   for (const char* file : {"examples/lamp.yaml", "examples/hinged-box.yaml"}) {
-    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
     int better = 0;
     const auto [total, dof] = TotalNees(g, 200, true, &better);
     CHECK(better == 200);
@@ -478,13 +478,13 @@ TEST_CASE("solve: NEES over 200 simulated lamps and 200 hinged boxes lies in its
 }
 
 TEST_CASE("solve: the fit's chi-square over 200 lamps and 200 hinged boxes follows its law",
-          "[interp]") {
+          "[interp][heavy]") {
   // Measurements with the stated noise: the sum of the solutions' chi-squares lies in the 99 %
   // interval of a chi-square with the sum of their dof, each dof is the residuals less the
   // model's degrees of freedom, and p-values below 0.01 are as rare as they should be.
   for (const char* file : {"examples/lamp.yaml", "examples/hinged-box.yaml"}) {
     CAPTURE(file);
-    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
     const int model_dof = AnalyzeDof(g, g.nominal).dof;
     double total = 0;
     int dof = 0, small_p = 0;
@@ -516,7 +516,7 @@ TEST_CASE("solve: the fit's chi-square over 200 lamps and 200 hinged boxes follo
 
 TEST_CASE("solve: a measurement the model cannot fit makes the solution not accepted",
           "[interp]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   SimulateOptions options;
   options.labels = true;
   Simulation sim = Simulate(g, options);
@@ -534,7 +534,7 @@ TEST_CASE("solve: a measurement the model cannot fit makes the solution not acce
 TEST_CASE("solve: the joints' Jacobian matches finite differences", "[interp]") {
   for (const char* file : {"examples/hinged-box.yaml", "examples/planar-arm.yaml"}) {
     CAPTURE(file);
-    const ConstraintGraph g = dsl::LoadModel(testing::SourcePath(file));
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
     Values x = g.nominal;
     std::mt19937 rng(5);
     std::normal_distribution<double> n(0, 0.3);
@@ -561,7 +561,7 @@ TEST_CASE("solve: a folding ruler from one image: every answer accepted is right
   // A nearly flat object seen in one image can end in a mirrored minimum; the mirrored starts
   // find the right one, and whatever is accepted is right (its joints within 5 standard
   // deviations and 10 degrees of the truth).
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/folding-ruler.yaml"));
   int accepted[2] = {0, 0}, wrong[2] = {0, 0};
   for (int explore = 0; explore < 2; ++explore) {
     for (unsigned seed = 1; seed <= 20; ++seed) {
@@ -573,7 +573,7 @@ TEST_CASE("solve: a folding ruler from one image: every answer accepted is right
       sim_options.camera = testing::Pinhole();
       const Simulation sim = Simulate(g, sim_options);
       SolveOptions options;
-      options.pose_from_projections = &vision::PoseFromProjections;
+      options.pose_from_projections = &PoseFromProjections;
       options.reject_outliers = true;
       options.explore_starts = explore == 1;
       const Solution s = Solve(g, sim.measurements, options);
@@ -602,7 +602,7 @@ TEST_CASE("solve: a folding ruler from one image: every answer accepted is right
 TEST_CASE("solve: a small square far off in one image has two answers, both said", "[interp]") {
   // Four corners of a 100 mm square 3 m away, turned 40 degrees: the square and its mirror
   // image about the line of sight project within a pixel of each other.
-  const ConstraintGraph g = dsl::LoadModelFromString(R"(
+  const ConstraintGraph g = LoadModelFromString(R"(
 name: square
 units: {length: mm}
 components:
@@ -624,7 +624,7 @@ components:
     const Values truth = Moved(g, pose);
     const MeasurementSet set = MeasureImage(g, truth, camera, pixel, rng);
     SolveOptions options;
-    options.pose_from_projections = &vision::PoseFromProjections;
+    options.pose_from_projections = &PoseFromProjections;
     const Solution s = Solve(g, set, options);
     REQUIRE(s.accepted());
     const auto turn = [&](const Values& v) {
@@ -647,7 +647,7 @@ TEST_CASE("solve: a measurement nothing else checks is never left out", "[interp
   // The hinged box's corners and one lid corner, that corner 0.3 m off: it is far from where the
   // lid can be, but it is the only witness of the lid's angle. Left out, the angle would be
   // anyone's guess and the rest would fit; it stays, and the solution is not accepted.
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   std::mt19937 rng(4);
   const MeasurementSet all = Measure3d(g, g.nominal, rng, 0.001);
   MeasurementSet set;
@@ -672,7 +672,7 @@ TEST_CASE("solve: a measurement nothing else checks is never left out", "[interp
 
 TEST_CASE("solve: what the measurements leave free is named", "[interp]") {
   // The hinged box measured on the box alone: the lid's angle is anyone's guess.
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   std::mt19937 rng(3);
   const MeasurementSet all = Measure3d(g, g.nominal, rng, 0.001);
   MeasurementSet box;
@@ -698,7 +698,7 @@ TEST_CASE("solve: what the measurements leave free is named", "[interp]") {
 TEST_CASE("solve: a real measurement is never left out of an accepted solution", "[interp]") {
   // Two gross outliers among a lamp's 18 points, 20-250 mm off: each solution accepted leaves
   // out both and no other; the rest are refused, not wrong.
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   const double gate = std::sqrt(ChiSquareQuantile(1 - 1e-9, 3));
   int accepted = 0;
   for (int trial = 0; trial < 40; ++trial) {

@@ -15,7 +15,7 @@ namespace cfuse {
 namespace {
 
 ConstraintGraph Example(const char* file) {
-  return dsl::LoadModel(testing::SourcePath(std::string("examples/") + file));
+  return LoadModel(testing::SourcePath(std::string("examples/") + file));
 }
 
 // Every point of every rigid component, in the reading, where its source point is in the

@@ -9,7 +9,7 @@
 #include "cfuse/kernel/measurements/image_point.h"
 #include "cfuse/kernel/measurements/image_segment.h"
 #include "cfuse/kernel/measurements/point3.h"
-#include "constraints/jacobian_checker.h"
+#include "kernel/jacobian_checker.h"
 
 namespace cfuse {
 namespace {

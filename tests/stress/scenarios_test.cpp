@@ -119,7 +119,7 @@ SolveRun CfuseSolve(const Workspace& ws, const std::string& model, const std::st
 // Solve as `cfuse solve` does it: PnP starts, gross outliers left out.
 Solution SolveAsCli(const ConstraintGraph& g, const MeasurementSet& set) {
   SolveOptions options;
-  options.pose_from_projections = &vision::PoseFromProjections;
+  options.pose_from_projections = &PoseFromProjections;
   options.reject_outliers = true;
   return Solve(g, set, options);
 }
@@ -186,8 +186,8 @@ TEST_CASE("stress: contradictory constraints end in status 1 naming the constrai
     const Workspace ws(std::string("contradictory_") + c.name);
     const std::string model = ws.Write("model.yaml", c.model);
     const std::string meas = ws.Write("m.json", c.measurements);
-    const ConstraintGraph g = dsl::LoadModel(model);
-    const Solution s = SolveAsCli(g, dsl::ReadMeasurements(meas));
+    const ConstraintGraph g = LoadModel(model);
+    const Solution s = SolveAsCli(g, ReadMeasurements(meas));
     CheckFinite(s);
     CHECK((!s.contradictions.empty() || !s.summary.converged));
     CHECK(s.invalid.empty());
@@ -216,8 +216,8 @@ constraints:
     {"xyz": [0.001, 0, 1], "sigma": 0.002, "label": "a"},
     {"xyz": [1.0, 0.003, 1], "sigma": 0.002, "label": "b"},
     {"xyz": [0, 1, 1.002], "sigma": 0.002, "label": "c"}]})");
-  const ConstraintGraph g = dsl::LoadModel(model);
-  const Solution s = SolveAsCli(g, dsl::ReadMeasurements(meas));
+  const ConstraintGraph g = LoadModel(model);
+  const Solution s = SolveAsCli(g, ReadMeasurements(meas));
   CheckFinite(s);
   REQUIRE(s.summary.converged);
   CHECK(s.contradictions.empty());
@@ -262,7 +262,7 @@ constraints:
   - name: coupler_again
     expr: norm(rocker.pin - crank.pin) == nominal
 )");
-  const ConstraintGraph lg = dsl::LoadModel(linkage);
+  const ConstraintGraph lg = LoadModel(linkage);
   SimulateOptions so;
   so.seed = 11;
   so.labels = true;
@@ -315,7 +315,7 @@ TEST_CASE("stress: a zero-length distance is refused at the constraint, with adv
     const Workspace ws(std::string("zero_length_") + c.name);
     const std::string model = ws.Write("model.yaml", c.model);
     try {
-      dsl::LoadModel(model);
+      LoadModel(model);
       FAIL("accepted");
     } catch (const InputError& e) {
       CHECK(e.where().line == 3);
@@ -355,8 +355,8 @@ TEST_CASE("stress: coplanar on collinear points: refused in the model, met in th
       {{"xyz": [2, 0, 1], "sigma": 0.002, "label": "c"}},
       {{"xyz": [3, -{0}, 1], "sigma": 0.002, "label": "d"}}]}})",
                                                                noise));
-    const ConstraintGraph g = dsl::LoadModel(model);
-    const Solution s = SolveAsCli(g, dsl::ReadMeasurements(meas));
+    const ConstraintGraph g = LoadModel(model);
+    const Solution s = SolveAsCli(g, ReadMeasurements(meas));
     CheckFinite(s);
     CHECK(s.summary.converged);
     CHECK(s.invalid.empty());
@@ -383,7 +383,7 @@ std::string RodModel() {
 TEST_CASE("stress: an image point at or behind the camera is left out and named", "[stress]") {
   const Workspace ws("camera_centre");
   const std::string model = ws.Write("rod.yaml", RodModel());
-  const ConstraintGraph g = dsl::LoadModel(model);
+  const ConstraintGraph g = LoadModel(model);
   const Camera camera = testing::Pinhole();
   // The rod 1 m in front of the camera: its tail exactly at the camera centre, then behind it.
   for (double depth : {1.0, 0.9}) {
@@ -405,7 +405,7 @@ TEST_CASE("stress: an image point at or behind the camera is left out and named"
       j["points"].push_back({{"uv", {uv.x(), uv.y()}}, {"sigma", 0.5}, {"label", "rod." + p.name}});
     }
     const std::string meas = ws.Write("m.json", j.dump());
-    const Solution s = SolveAsCli(g, dsl::ReadMeasurements(meas));
+    const Solution s = SolveAsCli(g, ReadMeasurements(meas));
     CheckFinite(s);
     // The other six measured the rod.
     const Rigid3d& found = s.state.mean.poses[0];
@@ -439,7 +439,7 @@ TEST_CASE("stress: an image point at or behind the camera is left out and named"
                  {{"uv", {320, 320}}, {"sigma", 1}, {"label", "rod.p1"}},
                  {{"uv", {240, 240}}, {"sigma", 1}, {"label", "rod.p2"}}};
   const std::string meas = ws.Write("three.json", j.dump());
-  const Solution s = SolveAsCli(g, dsl::ReadMeasurements(meas));
+  const Solution s = SolveAsCli(g, ReadMeasurements(meas));
   CheckFinite(s);
   CHECK(s.invalid.size() == 3);
   const SolveRun r = CfuseSolve(ws, model, meas);
@@ -487,7 +487,7 @@ TEST_CASE("stress: a measurement 10^6 sigma off is rejected, the rest solved cor
           "[stress]") {
   const Workspace ws("outlier_3d");
   const std::string model = testing::SourcePath("examples/lamp.yaml");
-  const ConstraintGraph g = dsl::LoadModel(model);
+  const ConstraintGraph g = LoadModel(model);
   SimulateOptions so;
   so.seed = 3;
   so.labels = true;
@@ -523,7 +523,7 @@ TEST_CASE("stress: a measurement 10^6 sigma off is rejected, the rest solved cor
 TEST_CASE("stress: an image point 10^6 sigma off is rejected, the box found", "[stress]") {
   const Workspace ws("outlier_2d");
   const std::string model = testing::SourcePath("examples/hinged-box.yaml");
-  const ConstraintGraph g = dsl::LoadModel(model);
+  const ConstraintGraph g = LoadModel(model);
   SimulateOptions so;
   so.seed = 4;
   so.labels = true;

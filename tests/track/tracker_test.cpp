@@ -17,10 +17,10 @@
 #include "cfuse/vision/texture.h"
 #include "test_util.h"
 
-namespace cfuse::track {
+namespace cfuse {
 namespace {
 
-vision::GrayView View(const vision::Rendering& r) {
+GrayView View(const Rendering& r) {
   return {r.pixels.data(), r.width, r.height, r.width};
 }
 
@@ -37,11 +37,11 @@ struct Errors {
 };
 
 // The root's (component 0's) error, and the first joint's, on every verified frame.
-Errors Run(const ConstraintGraph& graph, const std::vector<vision::SequenceFrame>& frames,
+Errors Run(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frames,
            const Values& initial, TrackerOptions options = {}) {
-  Tracker tracker(graph, vision::StandardCamera(), initial, options);
+  Tracker tracker(graph, StandardCamera(), initial, options);
   Errors out;
-  for (const vision::SequenceFrame& frame : frames) {
+  for (const SequenceFrame& frame : frames) {
     TrackedFrame f = tracker.Track(View(frame.rendering));
     ++out.frames;
     if (f.verified) {
@@ -62,10 +62,10 @@ Errors Run(const ConstraintGraph& graph, const std::vector<vision::SequenceFrame
 }
 
 ConstraintGraph HingedBox() {
-  return dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  return LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
 }
 ConstraintGraph RigidBox() {
-  return importers::ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  return ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
 }
 
 struct Bar {
@@ -74,25 +74,25 @@ struct Bar {
   double median_mm;     // translation error, at most
   double p90_mm;        // 90th percentile
   double median_joint;  // degrees
-  vision::RenderStyle style = vision::RenderStyle::kPlain;
+  RenderStyle style = RenderStyle::kPlain;
 };
 
 // The photographs of Debian's visp-images-data on the realistic renders' faces and backgrounds
 // (procedural cards when the package is missing, cfuse/vision/texture.h).
-std::shared_ptr<const std::vector<vision::GrayImage>> Photographs() {
-  static const auto photographs = std::make_shared<const std::vector<vision::GrayImage>>(
-      vision::LoadPhotographs(vision::VispPhotographPaths()));
+std::shared_ptr<const std::vector<GrayImage>> Photographs() {
+  static const auto photographs = std::make_shared<const std::vector<GrayImage>>(
+      LoadPhotographs(VispPhotographPaths()));
   return photographs;
 }
 
 void CheckScenario(const ConstraintGraph& graph, const Bar& bar, int frames = 40) {
   for (unsigned seed : {1u, 2u}) {
-    CAPTURE(bar.scenario, seed, vision::RenderStyleName(bar.style));
-    const vision::SequenceSpec spec = vision::StandardSequence(
+    CAPTURE(bar.scenario, seed, RenderStyleName(bar.style));
+    const SequenceSpec spec = StandardSequence(
         graph, bar.scenario, frames, seed, bar.style,
-        bar.style == vision::RenderStyle::kRealistic ? Photographs() : nullptr);
-    const std::vector<vision::SequenceFrame> sequence =
-        vision::RenderSequence(graph, vision::StandardCamera(), spec);
+        bar.style == RenderStyle::kRealistic ? Photographs() : nullptr);
+    const std::vector<SequenceFrame> sequence =
+        RenderSequence(graph, StandardCamera(), spec);
     const Errors e = Run(graph, sequence, sequence[0].truth);
     CHECK(e.verified >= bar.verified * e.frames);
     // No wrong pose verified: every verified frame within 10 mm of the truth.
@@ -105,7 +105,7 @@ void CheckScenario(const ConstraintGraph& graph, const Bar& bar, int frames = 40
     CHECK(Errors::Quantile(e.rotation_deg, 0.5) <= 1.0);
     if (!graph.joints.empty()) CHECK(Errors::Quantile(e.joint_deg, 0.5) <= bar.median_joint);
     if (std::string(bar.scenario) == "fast")
-      CHECK(vision::MedianImageMotion(graph, sequence, vision::StandardCamera()) >= 15);
+      CHECK(MedianImageMotion(graph, sequence, StandardCamera()) >= 15);
   }
 }
 
@@ -139,15 +139,16 @@ TEST_CASE("tracker: the hinged box in heavy clutter", "[tracker]") {
 TEST_CASE("tracker: a robot from its URDF, links with box primitives (the hinged box)",
           "[tracker]") {
   const ConstraintGraph graph =
-      importers::ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
+      ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
   CheckScenario(graph, {"steady", 1.0, 3.0, 5.0, 1.5});
 }
 
 // Realistic renders (cfuse/vision/render.h): photographs printed on the faces and behind the
 // object, shading with a highlight, motion blur, sensor noise, a hand passing in front.
-TEST_CASE("tracker: the hinged box, realistic: texture, highlight, blur, a hand", "[tracker]") {
+TEST_CASE("tracker: the hinged box, realistic: texture, highlight, blur, a hand",
+          "[tracker][heavy]") {
   const ConstraintGraph graph = HingedBox();
-  const auto realistic = vision::RenderStyle::kRealistic;
+  const auto realistic = RenderStyle::kRealistic;
   CheckScenario(graph, {"steady", 1.0, 2.5, 4.0, 0.5, realistic});
   CheckScenario(graph, {"hand", 0.95, 2.5, 4.0, 0.5, realistic});
   CheckScenario(graph, {"occluded", 0.7, 2.5, 4.0, 0.5, realistic});
@@ -155,16 +156,16 @@ TEST_CASE("tracker: the hinged box, realistic: texture, highlight, blur, a hand"
   CheckScenario(graph, {"jump", 0.95, 2.5, 4.0, 0.5, realistic});
 }
 
-TEST_CASE("tracker: after a loss the lid is looked for across its range", "[tracker]") {
+TEST_CASE("tracker: after a loss the lid is looked for across its range", "[tracker][heavy]") {
   // The realistic `steady` sequence of 120 frames, seed 6: where the lid stands edge-on the track
   // is lost, and found again with the lid where it was last seen, which the box's rim supports
   // nearly as well. Re-tracked with the lid at values across its limits
   // (TrackerOptions::settle_joint_values), the frame keeps the value that explains the image.
   const ConstraintGraph graph = HingedBox();
-  const vision::SequenceSpec spec = vision::StandardSequence(
-      graph, "steady", 120, 6, vision::RenderStyle::kRealistic, Photographs());
-  const std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const SequenceSpec spec = StandardSequence(
+      graph, "steady", 120, 6, RenderStyle::kRealistic, Photographs());
+  const std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
   auto wrong = [](const Errors& e) {
     int n = 0;
     for (size_t i = 0; i < e.translation_mm.size(); ++i) {
@@ -184,15 +185,15 @@ TEST_CASE("tracker: after a loss the lid is looked for across its range", "[trac
 
 TEST_CASE("tracker: a robot from its URDF, realistic", "[tracker]") {
   const ConstraintGraph graph =
-      importers::ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
-  CheckScenario(graph, {"steady", 1.0, 2.5, 4.0, 1.0, vision::RenderStyle::kRealistic});
-  CheckScenario(graph, {"hand", 0.95, 2.5, 4.0, 1.0, vision::RenderStyle::kRealistic});
+      ImportUrdf(testing::SourcePath("tests/data/urdf/file_box.urdf"));
+  CheckScenario(graph, {"steady", 1.0, 2.5, 4.0, 1.0, RenderStyle::kRealistic});
+  CheckScenario(graph, {"hand", 0.95, 2.5, 4.0, 1.0, RenderStyle::kRealistic});
 }
 
 TEST_CASE("tracker: a cabinet, drawer and door (8 DOF, three parts), with default options",
           "[tracker]") {
   const ConstraintGraph graph =
-      dsl::LoadModel(testing::SourcePath("examples/cabinet.yaml"));
+      LoadModel(testing::SourcePath("examples/cabinet.yaml"));
   // (Its realistic renders are not here: with the door nearly edge-on against a photograph of a
   // calibration grid, a frame 15 mm off was verified; docs/benchmarks.md.)
   CheckScenario(graph, {"steady", 0.95, 2.0, 3.0, 0.5}, 60);
@@ -203,14 +204,14 @@ TEST_CASE("tracker: a 10 mm plate, its rims' two outlines 6 px apart: never veri
   // Which outline of a rim the image shows depends on the light; the plate's depth is then not
   // determined to the tracker's 4 mm, and its frames are refused (the twin edges are not yet
   // told apart: docs/benchmarks.md).
-  const ConstraintGraph graph = dsl::LoadModel(testing::SourcePath("tests/data/models/plate.yaml"));
-  for (const auto style : {vision::RenderStyle::kPlain, vision::RenderStyle::kRealistic}) {
-    CAPTURE(vision::RenderStyleName(style));
-    const vision::SequenceSpec spec = vision::StandardSequence(
+  const ConstraintGraph graph = LoadModel(testing::SourcePath("tests/data/models/plate.yaml"));
+  for (const auto style : {RenderStyle::kPlain, RenderStyle::kRealistic}) {
+    CAPTURE(RenderStyleName(style));
+    const SequenceSpec spec = StandardSequence(
         graph, "steady", 30, 1, style,
-        style == vision::RenderStyle::kRealistic ? Photographs() : nullptr);
-    const std::vector<vision::SequenceFrame> sequence =
-        vision::RenderSequence(graph, vision::StandardCamera(), spec);
+        style == RenderStyle::kRealistic ? Photographs() : nullptr);
+    const std::vector<SequenceFrame> sequence =
+        RenderSequence(graph, StandardCamera(), spec);
     const Errors e = Run(graph, sequence, sequence[0].truth);
     for (double t : e.translation_mm) CHECK(t <= 10);
     for (const TrackedFrame& f : e.track) {
@@ -226,9 +227,9 @@ TEST_CASE("tracker: a knock the prediction cannot foresee", "[tracker]") {
 TEST_CASE("tracker: a knock beyond the search range is found by doubling it", "[tracker]") {
   const ConstraintGraph graph = HingedBox();
   CheckScenario(graph, {"jump", 0.95, 3.0, 8.0, 1.5});
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "jump", 40, 1);
-  const std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const SequenceSpec spec = StandardSequence(graph, "jump", 40, 1);
+  const std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
   const Errors e = Run(graph, sequence, sequence[0].truth);
   // At the knock, the range doubled (within at most two frames the track is back).
   const auto& knocked = e.track[spec.jump_frame];
@@ -240,7 +241,7 @@ TEST_CASE("tracker: a knock beyond the search range is found by doubling it", "[
   // Without doubling, the knock loses the object.
   TrackerOptions no_doubling;
   no_doubling.max_doublings = 0;
-  Tracker tracker(graph, vision::StandardCamera(), sequence[0].truth, no_doubling);
+  Tracker tracker(graph, StandardCamera(), sequence[0].truth, no_doubling);
   bool lost = false;
   for (int i = 0; i <= spec.jump_frame; ++i) {
     lost = !tracker.Track(View(sequence[i].rendering)).verified;
@@ -251,11 +252,11 @@ TEST_CASE("tracker: a knock beyond the search range is found by doubling it", "[
 TEST_CASE("tracker: knocked beyond every search range, found again by re-acquisition",
           "[tracker]") {
   const ConstraintGraph graph = RigidBox();
-  vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 40, 5);
+  SequenceSpec spec = StandardSequence(graph, "steady", 40, 5);
   spec.jump = Eigen::Vector3d(0.16, 0.04, 0);  // about 100 px, past the doubled range
   spec.jump_frame = 15;
-  const std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
   const Errors e = Run(graph, sequence, sequence[0].truth);
   for (double t : e.translation_mm) CHECK(t <= 10);
   CHECK_FALSE(e.track[15].verified);
@@ -276,9 +277,9 @@ TEST_CASE("tracker: knocked beyond every search range, found again by re-acquisi
 
 TEST_CASE("tracker: a far-off start is lost, never verified as a wrong pose", "[tracker]") {
   const ConstraintGraph graph = HingedBox();
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 20, 3);
-  const std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const SequenceSpec spec = StandardSequence(graph, "steady", 20, 3);
+  const std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
   for (const Eigen::Vector3d& offset :
        {Eigen::Vector3d(0.3, 0, 0), Eigen::Vector3d(0, -0.25, 0), Eigen::Vector3d(0, 0, 0.8)}) {
     CAPTURE(offset.transpose());
@@ -298,15 +299,15 @@ TEST_CASE("tracker: a start off in depth does not pull the first estimate toward
   // which the edges fix less well than the rest, 2 mm toward itself; widened until the estimate
   // lies within it (TrackerOptions::prior_confidence), it leaves the edges to decide.
   const ConstraintGraph graph = RigidBox();
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 1, 1);
-  const std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const SequenceSpec spec = StandardSequence(graph, "steady", 1, 1);
+  const std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
   auto first_error_mm = [&](double dz, double confidence) {
     Values initial = sequence[0].truth;
     for (Rigid3d& pose : initial.poses) pose.translation *= 1 + dz / pose.translation.norm();
     TrackerOptions options;
     options.prior_confidence = confidence;
-    Tracker tracker(graph, vision::StandardCamera(), initial, options);
+    Tracker tracker(graph, StandardCamera(), initial, options);
     const TrackedFrame f = tracker.Track(View(sequence[0].rendering));
     CHECK(f.verified);
     return 1000 * (f.estimate.mean.poses[0].translation - sequence[0].truth.poses[0].translation)
@@ -319,9 +320,9 @@ TEST_CASE("tracker: a start off in depth does not pull the first estimate toward
 
 TEST_CASE("tracker: a lost frame does not corrupt the next", "[tracker]") {
   const ConstraintGraph graph = HingedBox();
-  const vision::SequenceSpec spec = vision::StandardSequence(graph, "steady", 30, 4);
-  std::vector<vision::SequenceFrame> sequence =
-      vision::RenderSequence(graph, vision::StandardCamera(), spec);
+  const SequenceSpec spec = StandardSequence(graph, "steady", 30, 4);
+  std::vector<SequenceFrame> sequence =
+      RenderSequence(graph, StandardCamera(), spec);
   // Frames 10 to 12 blank: nothing to match.
   for (int i = 10; i <= 12; ++i) {
     std::fill(sequence[i].rendering.pixels.begin(), sequence[i].rendering.pixels.end(), 90);
@@ -340,13 +341,13 @@ TEST_CASE("tracker: a lost frame does not corrupt the next", "[tracker]") {
 
 TEST_CASE("tracker: bad input is refused with a reason", "[tracker]") {
   const ConstraintGraph graph = HingedBox();
-  Camera no_size = vision::StandardCamera();
+  Camera no_size = StandardCamera();
   no_size.width = no_size.height = 0;
   const Values initial =
-      vision::SequencePose(graph, vision::StandardSequence(graph, "steady", 2), 0);
+      SequencePose(graph, StandardSequence(graph, "steady", 2), 0);
   CHECK_THROWS_WITH(Tracker(graph, no_size, initial), Catch::Contains("no image size"));
   CHECK_THROWS_AS(Tracker(graph, no_size, initial), InputError);
-  Tracker tracker(graph, vision::StandardCamera(), initial);
+  Tracker tracker(graph, StandardCamera(), initial);
   std::vector<std::uint8_t> small(320 * 240, 0);
   CHECK_THROWS_WITH(tracker.Track({small.data(), 320, 240, 320}),
                     Catch::Contains("320 x 240") && Catch::Contains("640 x 480"));
@@ -354,4 +355,4 @@ TEST_CASE("tracker: bad input is refused with a reason", "[tracker]") {
 }
 
 }  // namespace
-}  // namespace cfuse::track
+}  // namespace cfuse

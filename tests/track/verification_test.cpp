@@ -12,12 +12,12 @@
 #include "cfuse/vision/sequence.h"
 #include "test_util.h"
 
-namespace cfuse::track {
+namespace cfuse {
 namespace {
 
 // The hinged box where the steady sequence has it at frame 0, its lid at `hinge` (rad).
 Values BoxWithLid(const ConstraintGraph& graph, double hinge) {
-  const Values at = vision::SequencePose(graph, vision::StandardSequence(graph, "steady", 2), 0);
+  const Values at = SequencePose(graph, StandardSequence(graph, "steady", 2), 0);
   Values v = ForwardKinematics(graph, {{"hinge", hinge}});
   const int box = graph.blocks[graph.components[0].block].index;
   const Rigid3d world_from_nominal = at.poses[box] * v.poses[box].Inverse();
@@ -27,15 +27,15 @@ Values BoxWithLid(const ConstraintGraph& graph, double hinge) {
 
 std::vector<EdgeModel> Predicted(const ConstraintGraph& graph, const Values& values) {
   const GaussianState state = MakePrior(graph.blocks, values, PriorScale{1e-4, 1e-4, 1e-4});
-  return PredictEdges(graph, geometry::ModelEdges(graph), state, vision::StandardCamera(),
-                      geometry::Visibility{0.17, 6, true}, 0.5, 12);
+  return PredictEdges(graph, ModelEdges(graph), state, StandardCamera(),
+                      Visibility{0.17, 6, true}, 0.5, 12);
 }
 
 std::vector<ModelLine> Lines(const ConstraintGraph& graph, const Values& values) {
-  const std::vector<geometry::ModelEdge> edges = geometry::ModelEdges(graph);
+  const std::vector<ModelEdge> edges = ModelEdges(graph);
   std::vector<ModelLine> out;
-  for (const geometry::ProjectedEdge& p :
-       geometry::VisibleEdges(graph, edges, values, vision::StandardCamera())) {
+  for (const ProjectedEdge& p :
+       VisibleEdges(graph, edges, values, StandardCamera())) {
     out.push_back({graph.components[edges[p.edge].component].block, p.a, p.b});
   }
   return out;
@@ -43,11 +43,11 @@ std::vector<ModelLine> Lines(const ConstraintGraph& graph, const Values& values)
 
 TEST_CASE("verification: a lid shut on the rim is not seen on its own", "[verification]") {
   const ConstraintGraph graph =
-      dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+      LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const Values open = BoxWithLid(graph, 60 * M_PI / 180);
-  const vision::Rendering r = vision::Render(graph, open, vision::StandardCamera());
-  const vision::GrayView image{r.pixels.data(), r.width, r.height, r.width};
-  const vision::NormalSearchOptions search;
+  const Rendering r = Render(graph, open, StandardCamera());
+  const GrayView image{r.pixels.data(), r.width, r.height, r.width};
+  const NormalSearchOptions search;
   const VerificationOptions options;
   // The truth is verified, the other part's edges along its own or not.
   const Verification truth =
@@ -69,4 +69,4 @@ TEST_CASE("verification: a lid shut on the rim is not seen on its own", "[verifi
 }
 
 }  // namespace
-}  // namespace cfuse::track
+}  // namespace cfuse

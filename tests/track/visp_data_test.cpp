@@ -25,7 +25,7 @@
 #include "cfuse/track/tracker.h"
 #include "test_util.h"
 
-namespace cfuse::track {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -68,8 +68,8 @@ void SetSize(const cv::Mat& frame, Camera* camera) {
 
 Sequence CastleSimu() {
   const fs::path d = kData / "Castle-simu";
-  Sequence s{importers::ImportCao((d / "Models/chateau.cao").string()),
-             importers::ReadVispCamera((d / "Config/chateau.xml").string()),
+  Sequence s{ImportCao((d / "Models/chateau.cao").string()),
+             ReadVispCamera((d / "Config/chateau.xml").string()),
              ReadFrames(d / "Images", "Image_%04d.pgm", 1, 40), {}, {}};
   SetSize(s.frames[0], &s.camera);
   for (int k = 1; k <= 40; ++k) {
@@ -83,11 +83,11 @@ Sequence CastleSimu() {
 
 Sequence Castel() {
   const fs::path d = kData / "castel";
-  Sequence s{importers::ImportCao((d / "chateau.cao").string()),
-             importers::ReadVispCamera((d / "chateau.xml").string()),
+  Sequence s{ImportCao((d / "chateau.cao").string()),
+             ReadVispCamera((d / "chateau.xml").string()),
              ReadFrames(d / "castel", "image_%04d.pgm", 0, 30), {}, {}};
   SetSize(s.frames[0], &s.camera);
-  s.start = importers::ReadVispPose((d / "chateau.0.pos").string());
+  s.start = ReadVispPose((d / "chateau.0.pos").string());
   std::ifstream in(testing::SourcePath("tests/data/visp/castel_reference.csv"));
   std::string line;
   std::getline(in, line);  // header
@@ -222,4 +222,4 @@ TEST_CASE("visp data: castel, a real close-up, near ViSP's track with depth", "[
 }
 
 }  // namespace
-}  // namespace cfuse::track
+}  // namespace cfuse

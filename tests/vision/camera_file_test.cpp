@@ -19,7 +19,7 @@
 #include "cfuse/dsl/measurement_reader.h"
 #include "test_util.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -121,7 +121,7 @@ TEST_CASE("OpenCV camera files: the calibration tutorial's output, YAML and XML"
 TEST_CASE("ROS camera_info: read by the dsl, projects as cv::projectPoints", "[vision]") {
   const std::string path = testing::SourcePath("tests/data/cameras/ros_camera_info.yaml");
   CHECK_FALSE(IsOpenCvStorage(path));
-  const Camera camera = dsl::ReadCameraFile(path);
+  const Camera camera = ReadCameraFile(path);
   CHECK(camera.width == 640);
   CHECK(camera.height == 480);
   // The file's K and D (its rectification and projection matrices are not used).
@@ -481,4 +481,4 @@ TEST_CASE("OpenCV camera files: the screen passes every string OpenCV writes", "
 }
 
 }  // namespace
-}  // namespace cfuse::vision
+}  // namespace cfuse

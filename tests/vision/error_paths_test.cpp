@@ -16,7 +16,7 @@
 #include "cfuse/vision/render.h"
 #include "test_util.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -69,7 +69,7 @@ TEST_CASE("error paths: OpenCV camera files refused at the node", "[vision][erro
 }
 
 TEST_CASE("error paths: a camera image too large to render", "[vision][errors]") {
-  const ConstraintGraph box = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph box = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   Camera camera = testing::Pinhole();
   camera.width = camera.height = 1000000;  // what a camera file may give
   // Bad input, without a file: the caller knows which camera file it read.
@@ -85,4 +85,4 @@ TEST_CASE("error paths: a camera image too large to render", "[vision][errors]")
 }
 
 }  // namespace
-}  // namespace cfuse::vision
+}  // namespace cfuse

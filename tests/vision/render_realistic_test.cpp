@@ -16,14 +16,8 @@
 #include "cfuse/vision/texture.h"
 #include "test_util.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
-
-using geometry::FrontFacing;
-using geometry::ModelEdge;
-using geometry::ModelEdges;
-using geometry::ProjectedEdge;
-using geometry::VisibleEdges;
 
 namespace fs = std::filesystem;
 
@@ -37,7 +31,7 @@ cv::Mat Image(const Rendering& r) {
 // A square plate `side` mm across whose one face looks along -z of its frame.
 ConstraintGraph Plate(int side) {
   const std::string s = std::to_string(side);
-  return dsl::LoadModelFromString(
+  return LoadModelFromString(
       "name: plate\nunits: {length: mm}\ncomponents:\n  plate:\n    points: {p00: [0, 0, 0], "
       "p10: [" +
           s + ", 0, 0], p11: [" + s + ", " + s + ", 0], p01: [0, " + s +
@@ -159,7 +153,7 @@ TEST_CASE("realistic render: a face's texture is mapped in perspective", "[visio
 // The hinged box's first frame of the steady scenario, realistic, on procedural cards, without
 // noise: the scene and its truth.
 struct BoxScene {
-  ConstraintGraph graph = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  ConstraintGraph graph = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   Camera camera = StandardCamera();
   SequenceFrame frame;
 };
@@ -388,7 +382,7 @@ TEST_CASE("realistic render: the sensor's noise has variance read² + gain · si
 }
 
 TEST_CASE("realistic render: the same seeds give the same image", "[vision][render]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const auto photographs = Share(ProceduralPhotographs(5));
   SequenceSpec spec = StandardSequence(g, "fast", 3, 5, RenderStyle::kRealistic, photographs);
   const std::vector<SequenceFrame> one = RenderSequence(g, StandardCamera(), spec);
@@ -420,7 +414,7 @@ TEST_CASE("realistic render: the same seeds give the same image", "[vision][rend
 TEST_CASE("realistic render: without photographs, procedural cards", "[vision][render]") {
   // No photographs (null or empty) is ProceduralPhotographs(look_seed): printed cards on the
   // faces and behind.
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   SequenceSpec spec = StandardSequence(g, "steady", 1, 8, RenderStyle::kRealistic);
   const Values at = SequencePose(g, spec, 0);
   RenderOptions o = spec.render;
@@ -510,7 +504,7 @@ TEST_CASE("photographs: read from files and directories, refused at the file", "
 TEST_CASE("realistic render: a hand hides what it passes over", "[vision][render]") {
   // The `hand` scenario, both styles: at the middle frame the hand covers part of the box, whose
   // edges there leave the truth; the other scenarios' frames are untouched by it.
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   const Camera camera = StandardCamera();
   for (RenderStyle style : {RenderStyle::kPlain, RenderStyle::kRealistic}) {
     INFO(RenderStyleName(style));
@@ -555,7 +549,7 @@ TEST_CASE("realistic render: a hand hides what it passes over", "[vision][render
 
 TEST_CASE("realistic render: every standard scenario, and a robot of boxes", "[vision][render]") {
   const auto photographs = Share(ProceduralPhotographs(4));
-  const ConstraintGraph box = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph box = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   for (const std::string& name : StandardSequenceNames()) {
     INFO(name);
     const SequenceSpec spec =
@@ -568,7 +562,7 @@ TEST_CASE("realistic render: every standard scenario, and a robot of boxes", "[v
   }
   // A URDF robot whose links are boxes: their faces printed too.
   const ConstraintGraph arm =
-      importers::ImportUrdf(testing::SourcePath("tests/data/urdf/arm.urdf"));
+      ImportUrdf(testing::SourcePath("tests/data/urdf/arm.urdf"));
   const SequenceSpec spec =
       StandardSequence(arm, "steady", 1, 6, RenderStyle::kRealistic, photographs);
   const std::vector<SequenceFrame> frames = RenderSequence(arm, StandardCamera(), spec);
@@ -582,4 +576,4 @@ TEST_CASE("realistic render: every standard scenario, and a robot of boxes", "[v
 }
 
 }  // namespace
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -8,18 +8,13 @@
 #include "cfuse/geometry/model_edges.h"
 #include "test_util.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
-
-using geometry::ModelEdge;
-using geometry::ModelEdges;
-using geometry::ProjectedEdge;
-using geometry::VisibleEdges;
 
 TEST_CASE("render: the truth lies on the visible edges, hidden parts removed", "[vision]") {
   // The hinged box with its lid open: the truth's segments lie on the projected visible edges
   // and add up to no more than them (hidden and contrast-less stretches are left out).
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   Camera camera = testing::Pinhole();
   camera.fx = camera.fy = 1000;
   const Eigen::Matrix3d R = (Eigen::AngleAxisd(2.3, Eigen::Vector3d::UnitX()) *
@@ -60,4 +55,4 @@ TEST_CASE("render: the truth lies on the visible edges, hidden parts removed", "
 }
 
 }  // namespace
-}  // namespace cfuse::vision
+}  // namespace cfuse

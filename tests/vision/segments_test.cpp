@@ -16,7 +16,7 @@
 #include "cfuse/vision/segment_score.h"
 #include "test_util.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 GrayView View(const cv::Mat& image) {
@@ -118,7 +118,7 @@ struct SceneScore {
 };
 
 SceneScore ScoreScenes(SegmentDetector detector, int scenes, bool clutter, double noise) {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
   Camera camera = testing::Pinhole();
   SceneScore out;
   for (int t = 0; t < scenes; ++t) {
@@ -264,4 +264,4 @@ TEST_CASE("segment index: queries return exactly what brute force does", "[visio
 }
 
 }  // namespace
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -6,7 +6,7 @@
 
 #include "cfuse/vision/segment_index.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 EdgeAppearance::EdgeAppearance(int edges, int bins)
     : bins_(std::max(1, bins)), table_(static_cast<size_t>(std::max(0, edges)) * bins_) {}
@@ -201,7 +201,7 @@ bool Vote(const std::vector<Sample>& samples, const std::vector<Hit>& hits, doub
 
 }  // namespace
 
-std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> NormalSearchCandidates(const GrayView& image,
                                                   const std::vector<EdgeModel>& edges,
                                                   const EdgeAppearance& appearance,
                                                   const EvidenceOptions& options,
@@ -209,7 +209,7 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
   std::vector<EdgeCandidate> out;
   std::vector<Sample> samples;
   std::vector<Hit> hits;
-  std::vector<vision::ProfileHit> found;
+  std::vector<ProfileHit> found;
   std::vector<int> votes, chosen;
   for (size_t i = 0; i < edges.size(); ++i) {
     const EdgeModel& e = edges[i];
@@ -229,11 +229,11 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
       reach = std::max(reach, range);
       found.clear();
       const Eigen::Vector2f point = (e.a + s * e.dir).cast<float>();
-      vision::SearchAlongNormal(image, point, normal, static_cast<float>(range), options.search,
+      SearchAlongNormal(image, point, normal, static_cast<float>(range), options.search,
                                 &found);
       const int expected = appearance.Polarity(e.edge, e.t0 + u * (e.t1 - e.t0));
       Sample sample{s, static_cast<int>(hits.size()), 0};
-      for (const vision::ProfileHit& h : found) {
+      for (const ProfileHit& h : found) {
         if (expected != 0 && (h.contrast > 0 ? 1 : -1) != expected) continue;
         hits.push_back({h.offset, h.contrast, h.width, false});
         ++sample.count;
@@ -310,12 +310,12 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
   return out;
 }
 
-std::vector<EdgeCandidate> StrongestStepCandidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> StrongestStepCandidates(const GrayView& image,
                                                    const std::vector<EdgeModel>& edges,
                                                    const EdgeAppearance& appearance,
                                                    const EvidenceOptions& options, double reach) {
   std::vector<EdgeCandidate> out;
-  std::vector<vision::ProfileHit> found;
+  std::vector<ProfileHit> found;
   std::vector<double> s, d, w;
   for (size_t i = 0; i < edges.size(); ++i) {
     const EdgeModel& e = edges[i];
@@ -331,10 +331,10 @@ std::vector<EdgeCandidate> StrongestStepCandidates(const vision::GrayView& image
       const double at = margin + k * spacing;
       const double u = at / e.length;
       found.clear();
-      vision::SearchAlongNormal(image, (e.a + at * e.dir).cast<float>(), e.normal.cast<float>(),
+      SearchAlongNormal(image, (e.a + at * e.dir).cast<float>(), e.normal.cast<float>(),
                                 static_cast<float>(reach), options.search, &found);
       const int expected = appearance.Polarity(e.edge, e.t0 + u * (e.t1 - e.t0));
-      for (const vision::ProfileHit& h : found) {  // strongest first
+      for (const ProfileHit& h : found) {  // strongest first
         if (expected != 0 && (h.contrast > 0 ? 1 : -1) != expected) continue;
         s.push_back(at);
         d.push_back(h.offset);
@@ -407,9 +407,9 @@ std::vector<EdgeCandidate> StrongestStepCandidates(const vision::GrayView& image
   return out;
 }
 
-std::vector<EdgeCandidate> SegmentCandidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> SegmentCandidates(const GrayView& image,
                                              const std::vector<EdgeModel>& edges,
-                                             const vision::SegmentOptions& segment_options,
+                                             const SegmentOptions& segment_options,
                                              const EvidenceOptions& options) {
   if (edges.empty()) return {};
   // Segments where the edges can be seen: their box, widened by 3 sigma and a margin.
@@ -423,10 +423,10 @@ std::vector<EdgeCandidate> SegmentCandidates(const vision::GrayView& image,
   const int y0 = std::clamp(static_cast<int>(std::floor(lo.y())), 0, image.height - 1);
   const int x1 = std::clamp(static_cast<int>(std::ceil(hi.x())) + 1, x0 + 1, image.width);
   const int y1 = std::clamp(static_cast<int>(std::ceil(hi.y())) + 1, y0 + 1, image.height);
-  vision::SegmentOptions so = segment_options;
-  so.roi = vision::PixelRect{x0, y0, x1 - x0, y1 - y0};
-  const std::vector<vision::ImageSegment> segments = vision::DetectSegments(image, so);
-  const vision::SegmentIndex index(segments, image.width, image.height);
+  SegmentOptions so = segment_options;
+  so.roi = PixelRect{x0, y0, x1 - x0, y1 - y0};
+  const std::vector<ImageSegment> segments = DetectSegments(image, so);
+  const SegmentIndex index(segments, image.width, image.height);
   const double background =
       static_cast<double>(segments.size()) / (M_PI * static_cast<double>(x1 - x0) * (y1 - y0));
   std::vector<EdgeCandidate> out;
@@ -455,4 +455,4 @@ std::vector<EdgeCandidate> SegmentCandidates(const vision::GrayView& image,
   return out;
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse

@@ -6,7 +6,7 @@
 
 #include "cfuse/kernel/measurements/image_segment.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 double EdgeModel::SigmaAt(double u) const {
   const double v = (1 - u) * (1 - u) * var_a + u * u * var_b + 2 * u * (1 - u) * cov_ab;
@@ -51,15 +51,15 @@ void SetImage(const Eigen::Vector2d& a, const Eigen::Vector2d& b, EdgeModel* e) 
 }  // namespace
 
 std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
-                                    const std::vector<geometry::ModelEdge>& edges,
+                                    const std::vector<ModelEdge>& edges,
                                     const GaussianState& state, const Camera& camera,
-                                    const geometry::Visibility& visibility, double pixel_sigma,
+                                    const Visibility& visibility, double pixel_sigma,
                                     double min_pixels) {
   std::vector<EdgeModel> out;
-  for (const geometry::ProjectedEdge& p :
-       geometry::VisibleEdges(graph, edges, state.mean, camera, visibility)) {
+  for (const ProjectedEdge& p :
+       VisibleEdges(graph, edges, state.mean, camera, visibility)) {
     if ((p.b - p.a).norm() < min_pixels) continue;
-    const geometry::ModelEdge& m = edges[p.edge];
+    const ModelEdge& m = edges[p.edge];
     const Component& c = graph.components[m.component];
     const Rigid3d& camera_from_component = state.mean.poses[graph.blocks[c.block].index];
     const Rigid3d component_from_camera = camera_from_component.Inverse();
@@ -77,7 +77,7 @@ std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
       e.t1 = std::clamp(along.dot(e.B - start) / length2, 0.0, 1.0);
     }
     int front = 0;
-    for (int f : m.faces) front += geometry::FrontFacing(graph, m.component, f, state.mean, camera);
+    for (int f : m.faces) front += FrontFacing(graph, m.component, f, state.mean, camera);
     e.silhouette = !m.faces.empty() && front == 1 && m.faces.size() <= 2 &&
                    (m.faces.size() == 1 || front == 1);
     SetImage(p.a, p.b, &e);
@@ -101,4 +101,4 @@ void Reproject(const ConstraintGraph& graph, const Camera& camera, const Gaussia
   }
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse

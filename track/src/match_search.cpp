@@ -7,7 +7,7 @@
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
 
-namespace cfuse::track {
+namespace cfuse {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -206,4 +206,4 @@ MatchSearchResult SearchMatchSets(const ConstraintGraph& graph, const Camera& ca
   return Search(graph, camera, constraints, prior, edges, candidates, dof, options).Run(judge);
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse

@@ -8,9 +8,10 @@
 #include <string>
 
 #include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/track/tracker.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 namespace {
 
@@ -42,7 +43,7 @@ Values Tracker::RingPlace(const Values& centre, int ring, double angle) const {
   return Shifted(centre, Eigen::Vector3d(radius * std::cos(angle), radius * std::sin(angle), 0));
 }
 
-bool Tracker::Reacquire(const vision::GrayView& image, const Values& centre, TrackedFrame* out) {
+bool Tracker::Reacquire(const GrayView& image, const Values& centre, TrackedFrame* out) {
   // The better of two frames: verified, then the more of the outline supported.
   auto better = [](const TrackedFrame& a, const TrackedFrame& b) {
     if (a.verified != b.verified) return a.verified;
@@ -112,16 +113,14 @@ double Tracker::JointValue(const Joint& joint, const Values& values) const {
   // The joint's motion: its angle about, or its shift along, the axis.
   const Rigid3d motion = joint.parent_from_joint.Inverse() * world_from_parent.Inverse() *
                          world_from_child * joint.child_from_joint;
-  if (joint.type == JointType::kPrismatic) return motion.translation.dot(joint.axis);
-  const Eigen::AngleAxisd turned(motion.rotation);
-  return turned.angle() * (turned.axis().dot(joint.axis) < 0 ? -1 : 1);
+  return ModelOf(joint.type).Variable(joint.axis, motion);
 }
 
 double Tracker::JointPixels(const Joint& joint, const Values& values) const {
   const Component& child = graph_.components[joint.child];
   const double pixels =
       PixelsPerMetre(values.poses[graph_.blocks[child.block].index].translation.z());
-  return joint.type == JointType::kPrismatic ? pixels
+  return ModelOf(joint.type).VariableIsLength() ? pixels
                                              : pixels * std::max(radius_[child.block], 1e-3);
 }
 
@@ -133,7 +132,7 @@ std::vector<Values> Tracker::JointPlaces(const Values& centre) const {
         centre.poses[graph_.blocks[graph_.components[joint.parent].block].index];
     const Rigid3d& world_from_child =
         centre.poses[graph_.blocks[graph_.components[joint.child].block].index];
-    const bool prismatic = joint.type == JointType::kPrismatic;
+    const bool prismatic = ModelOf(joint.type).VariableIsLength();
     const double now = JointValue(joint, centre);
     std::vector<double> values;
     if (joint.limits) {
@@ -181,7 +180,7 @@ double Tracker::Evidence(const Verification& v) {
   return v.supported - v.chance * v.samples;
 }
 
-void Tracker::Settle(const vision::GrayView& image, TrackedFrame* out) {
+void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   std::vector<Values> places;
   for (int k = 0; k < options_.settle_places; ++k) {
     places.push_back(RingPlace(out->estimate.mean, 1, 2 * M_PI * k / options_.settle_places));
@@ -220,11 +219,11 @@ void Tracker::Settle(const vision::GrayView& image, TrackedFrame* out) {
       if (!Settleable(joint)) continue;
       const double here = JointValue(joint, out->estimate.mean);
       const double there = JointValue(joint, attempt.estimate.mean);
-      const double apart = joint.type == JointType::kPrismatic
+      const double apart = ModelOf(joint.type).VariableIsLength()
                                ? std::abs(there - here)
                                : std::abs(std::remainder(there - here, 2 * M_PI));
       if (apart * JointPixels(joint, out->estimate.mean) > options_.search_pixels) {
-        const bool prismatic = joint.type == JointType::kPrismatic;
+        const bool prismatic = ModelOf(joint.type).VariableIsLength();
         ambiguous = fmt::format(
             "'{}' at {:.{}f} {} and at {:.{}f} {} explain the image alike ({:.0f} and {:.0f} "
             "samples of their outlines supported beyond chance)",
@@ -253,4 +252,4 @@ void Tracker::Settle(const vision::GrayView& image, TrackedFrame* out) {
   out->branches = branches;
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse

@@ -13,7 +13,7 @@
 #include "cfuse/kernel/error.h"
 #include "cfuse/kernel/evaluate.h"
 
-namespace cfuse::track {
+namespace cfuse {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -70,7 +70,7 @@ Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Value
   if (camera_.width <= 0 || camera_.height <= 0) {
     throw InputError(SourceLocation(), "the camera has no image size (width and height)");
   }
-  edges_ = geometry::ModelEdges(graph_);
+  edges_ = ModelEdges(graph_);
   appearance_ = EdgeAppearance(static_cast<int>(edges_.size()));
   for (const Constraint& c : graph_.constraints)
     constraints_.push_back({c.residual, c.blocks, {}, c.name});
@@ -153,7 +153,7 @@ FramePrior Tracker::Prior(const Values& predicted, double scale) const {
   return out;
 }
 
-TrackedFrame Tracker::Track(const vision::GrayView& image) {
+TrackedFrame Tracker::Track(const GrayView& image) {
   if (image.width != camera_.width || image.height != camera_.height) {
     throw InputError(SourceLocation(), "the image is " + std::to_string(image.width) + " x " +
                                            std::to_string(image.height) + ", the camera's " +
@@ -257,7 +257,7 @@ TrackedFrame Tracker::Track(const vision::GrayView& image) {
   return out;
 }
 
-bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, TrackedFrame* out) {
+bool Tracker::TryFrom(const GrayView& image, const FramePrior& prior, TrackedFrame* out) {
   FrameTimes& times = out->times;
   auto start = Clock::now();
   const std::vector<EdgeModel> edges =
@@ -381,7 +381,7 @@ bool Tracker::TryFrom(const vision::GrayView& image, const FramePrior& prior, Tr
   return true;
 }
 
-TrackedFrame Tracker::TryPlace(const vision::GrayView& image, const Values& place) {
+TrackedFrame Tracker::TryPlace(const GrayView& image, const Values& place) {
   const auto start = Clock::now();
   const FramePrior prior = Prior(place, 2);
   TrackedFrame attempt;
@@ -390,7 +390,7 @@ TrackedFrame Tracker::TryPlace(const vision::GrayView& image, const Values& plac
   return attempt;
 }
 
-std::vector<EdgeCandidate> Tracker::Candidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> Tracker::Candidates(const GrayView& image,
                                                const std::vector<EdgeModel>& edges) const {
   return options_.evidence == EdgeEvidence::kNormalSearch
              ? NormalSearchCandidates(image, edges, appearance_, options_.evidence_options)
@@ -400,7 +400,7 @@ std::vector<EdgeCandidate> Tracker::Candidates(const vision::GrayView& image,
 std::vector<ModelLine> Tracker::ModelLines(const Values& values) const {
   std::vector<ModelLine> out;
   if (graph_.components.size() < 2) return out;
-  for (const geometry::ProjectedEdge& p : geometry::VisibleEdges(graph_, edges_, values, camera_)) {
+  for (const ProjectedEdge& p : VisibleEdges(graph_, edges_, values, camera_)) {
     out.push_back({graph_.components[edges_[p.edge].component].block, p.a, p.b});
   }
   return out;
@@ -411,7 +411,7 @@ double Tracker::PriorDistance(const GaussianState& prior, const Values& mean) co
   return d.dot(prior.covariance.ldlt().solve(d));
 }
 
-void Tracker::Refine(const vision::GrayView& image, const FramePrior& prior,
+void Tracker::Refine(const GrayView& image, const FramePrior& prior,
                      MatchedSet* set) const {
   const int needed = (dof_ + 1) / 2;
   // A second round from the first's estimate picks up the edges the set's estimate was too far
@@ -528,4 +528,4 @@ void Tracker::Refine(const vision::GrayView& image, const FramePrior& prior,
   }
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse

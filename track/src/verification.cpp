@@ -6,7 +6,7 @@
 #include <cmath>
 #include <map>
 
-namespace cfuse::track {
+namespace cfuse {
 
 const char* RefusalName(Refusal refusal) {
   switch (refusal) {
@@ -62,8 +62,8 @@ bool Shared(const std::vector<ModelLine>& model, const EdgeModel& e, const Eigen
 
 }  // namespace
 
-Verification VerifyOutline(const vision::GrayView& image, const std::vector<EdgeModel>& edges,
-                           const vision::NormalSearchOptions& search,
+Verification VerifyOutline(const GrayView& image, const std::vector<EdgeModel>& edges,
+                           const NormalSearchOptions& search,
                            const VerificationOptions& options,
                            const std::vector<ModelLine>& model) {
   Verification out;
@@ -76,8 +76,8 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
   double by_direction[kDirections] = {};
   int probes_supported = 0, dominated = 0, displaced = 0, side = 1;
   double distance_sum = 0, spread_sum = 0;
-  std::vector<vision::ProfileHit> found;
-  vision::NormalSearchOptions wide = search;
+  std::vector<ProfileHit> found;
+  NormalSearchOptions wide = search;
   wide.max_hits = 8;
   for (const EdgeModel& e : edges) {
     const double margin = std::min(2.0, 0.25 * e.length);
@@ -97,16 +97,16 @@ Verification VerifyOutline(const vision::GrayView& image, const std::vector<Edge
           std::clamp(2.5 * std::hypot(e.SigmaAt(u), e.noise), options.min_reach, options.max_reach);
       const double wide_reach = std::max(options.wide_reach, 3 * reach);
       found.clear();
-      vision::SearchAlongNormal(image, (e.a + s * e.dir).cast<float>(), normal,
+      SearchAlongNormal(image, (e.a + s * e.dir).cast<float>(), normal,
                                 static_cast<float>(wide_reach), wide, &found);
       // The strongest step, the nearest within the reach, and whether the probe off the edge
       // (either side in turn, just beyond the reach) has one.
       side = -side;
       const double probe = side * (wide_reach - reach);
-      const vision::ProfileHit* strongest = nullptr;
-      const vision::ProfileHit* nearest = nullptr;
+      const ProfileHit* strongest = nullptr;
+      const ProfileHit* nearest = nullptr;
       bool probed = false;
-      for (const vision::ProfileHit& h : found) {  // strongest first
+      for (const ProfileHit& h : found) {  // strongest first
         if (!strongest) strongest = &h;
         if (std::abs(h.offset) <= reach &&
             (!nearest || std::abs(h.offset) < std::abs(nearest->offset))) {
@@ -210,4 +210,4 @@ void Remember(const Verification& verification, EdgeAppearance* appearance) {
   appearance->Commit();
 }
 
-}  // namespace cfuse::track
+}  // namespace cfuse

@@ -16,7 +16,7 @@
 #include "cfuse/kernel/measurements/camera_checks.h"
 #include "file_storage_screen.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -262,4 +262,4 @@ Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& disp
   }
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

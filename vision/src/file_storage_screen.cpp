@@ -10,7 +10,7 @@
 
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
@@ -19,7 +19,7 @@ bool IsSpace(char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; }
 size_t Utf8Length(unsigned char c) { return c < 0xC0 ? 1 : c < 0xE0 ? 2 : c < 0xF0 ? 3 : 4; }
 
 // What stands at `pos` in a message: a character in quotes, or the end of the file.
-std::string Found(std::string_view text, size_t pos) {
+std::string FoundAt(std::string_view text, size_t pos) {
   if (pos >= text.size()) return "the end of the file";
   const char c = text[pos];
   if (c == '\n' || c == '\r') return "the end of the line";
@@ -54,7 +54,7 @@ class Scanner {
   bool AtEnd() const { return pos_ >= text_.size(); }
   bool At(char c) const { return pos_ < text_.size() && text_[pos_] == c; }
   bool StartsWith(std::string_view s) const { return text_.substr(pos_).starts_with(s); }
-  std::string Found() const { return vision::Found(text_, pos_); }
+  std::string Found() const { return FoundAt(text_, pos_); }
   // Skips white space; whether there was any.
   bool SkipSpace() {
     const size_t from = pos_;
@@ -503,7 +503,7 @@ class YamlScreen : Scanner {
         !(text_[content] == '#' && content > pos_)) {
       Fail(content, fmt::format("'---' (a document's start) stands alone on its line for "
                                 "cv::FileStorage, found {} after it",
-                                vision::Found(text_, content)));
+                                FoundAt(text_, content)));
     }
   }
   void SkipLine() {
@@ -587,8 +587,8 @@ void ScreenFileStorageText(const std::string& display_name, std::string_view tex
                      fmt::format("not a cv::FileStorage file: it must begin with '%YAML:1.0', "
                                  "'<?xml' or '{{' (nothing before them, not even white space), "
                                  "found {}",
-                                 Found(text, start)));
+                                 FoundAt(text, start)));
   }
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -37,7 +37,7 @@
 #include <string>
 #include <string_view>
 
-namespace cfuse::vision {
+namespace cfuse {
 
 // Elements, brackets or `- ` entries inside one another (cv::FileStorage recurses into each).
 inline constexpr size_t kMaxFileStorageDepth = 256;
@@ -46,4 +46,4 @@ inline constexpr size_t kMaxFileStorageDepth = 256;
 // `text` is already known to be UTF-8 without NUL bytes (RequireText).
 void ScreenFileStorageText(const std::string& display_name, std::string_view text);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 // Bilinear interpolation at (x, y), which must lie in [0, width - 1) x [0, height - 1).
@@ -107,4 +107,4 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
   return static_cast<int>(hits->size()) - before;
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

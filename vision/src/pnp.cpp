@@ -3,7 +3,7 @@
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/eigen.hpp>
 
-namespace cfuse::vision {
+namespace cfuse {
 
 bool PoseFromProjections(const Camera& camera, const std::vector<Eigen::Vector3d>& object_points,
                          const std::vector<Eigen::Vector2d>& image_points,
@@ -35,4 +35,4 @@ bool PoseFromProjections(const Camera& camera, const std::vector<Eigen::Vector3d
   return Re.allFinite() && camera_from_object->translation.allFinite();
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -5,7 +5,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 // OpenCV colours are BGR.
@@ -121,4 +121,4 @@ std::string PointPicturePng(const std::vector<PictureMarker>& markers,
   return std::string(png.begin(), png.end());
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -12,7 +12,7 @@
 
 #include "render_internal.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 using internal::kFaceStride;
@@ -166,4 +166,4 @@ std::vector<std::uint8_t> EncodePng(const std::vector<std::uint8_t>& pixels, int
   return bytes;
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

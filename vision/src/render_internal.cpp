@@ -5,13 +5,7 @@
 
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::vision::internal {
-
-using geometry::FrontFacing;
-using geometry::ModelEdge;
-using geometry::ModelEdges;
-using geometry::ProjectedEdge;
-using geometry::VisibleEdges;
+namespace cfuse::internal {
 
 void CheckRenderable(const Camera& camera) {
   if (camera.width <= 0 || camera.height <= 0) {
@@ -256,4 +250,4 @@ std::vector<TruthSegment> VisibleTruth(
   return out;
 }
 
-}  // namespace cfuse::vision::internal
+}  // namespace cfuse::internal

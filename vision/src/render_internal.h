@@ -14,7 +14,7 @@
 
 #include "cfuse/vision/render.h"
 
-namespace cfuse::vision::internal {
+namespace cfuse::internal {
 
 constexpr double kNearPlane = 1e-3;
 constexpr int kFaceStride = 1 << 16;  // the face buffer holds component * kFaceStride + face
@@ -122,4 +122,4 @@ std::vector<TruthSegment> VisibleTruth(
 Rendering RenderRealistic(const ConstraintGraph& graph, const Values& values, const Camera& camera,
                           const RenderOptions& options);
 
-}  // namespace cfuse::vision::internal
+}  // namespace cfuse::internal

@@ -13,7 +13,7 @@
 
 #include "render_internal.h"
 
-namespace cfuse::vision::internal {
+namespace cfuse::internal {
 namespace {
 
 // What every face's shading shares.
@@ -591,4 +591,4 @@ Rendering RenderRealistic(const ConstraintGraph& graph, const Values& values, co
   return out;
 }
 
-}  // namespace cfuse::vision::internal
+}  // namespace cfuse::internal

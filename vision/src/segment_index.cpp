@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 constexpr float kPi = static_cast<float>(M_PI);
@@ -91,4 +91,4 @@ void SegmentIndex::Query(const Eigen::Vector2f& centre, float radius, float orie
   out->erase(std::unique(out->begin(), out->end()), out->end());
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 // Whether point p, on a line of direction `dir` (unit), lies within `distance` of segment
@@ -63,4 +63,4 @@ Coverage CoverTruth(const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d
   return c;
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

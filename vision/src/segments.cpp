@@ -14,7 +14,7 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 using Clock = std::chrono::steady_clock;
@@ -548,4 +548,4 @@ std::vector<ImageSegment> DetectSegments(const GrayView& image, const SegmentOpt
   return out;
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -7,7 +7,7 @@
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 namespace {
 
@@ -280,4 +280,4 @@ std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Ca
   return out;
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -15,7 +15,7 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
@@ -299,4 +299,4 @@ std::vector<FaceTexture> FaceTextures(const ConstraintGraph& graph,
   return out;
 }
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -39,8 +39,15 @@ class JointModel {
   // A scalar joint variable q (revolute, continuous, prismatic), whose Motion(q) the joint's
   // state is; the others keep their relative motion itself.
   virtual bool HasVariable() const { return false; }
+  // Whether the variable is a length along the axis (prismatic) rather than an angle about it.
+  bool VariableIsLength() const { return HasVariable() && !Parameters().front().angle; }
   // Motion(q) for a joint with a variable; the identity for the others.
   virtual Rigid3d Motion(const Eigen::Vector3d& /*axis*/, double /*q*/) const { return Rigid3d(); }
+  // For a joint with a variable, the q whose Motion(q) `motion` is nearest: the shift along the
+  // axis, or the angle about it in (-π, π]. 0 for the others.
+  virtual double Variable(const Eigen::Vector3d& /*axis*/, const Rigid3d& /*motion*/) const {
+    return 0;
+  }
 
   // For a joint without a variable: its motion nearest to `relative`, the child's joint frame
   // in the parent's (the identity for the others).

@@ -15,7 +15,7 @@
 
 #include "cfuse/kernel/measurement_set.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 inline constexpr size_t kMaxMeasurementFileBytes = 64u << 20;
 inline constexpr int kMaxMeasuredPoints = 1000000;
@@ -32,4 +32,4 @@ MeasurementSet ReadMeasurementsFromString(std::string_view text, const std::stri
 Camera ReadCameraFile(const std::string& path);
 Camera ReadCameraFromString(std::string_view text, const std::string& display_name);
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

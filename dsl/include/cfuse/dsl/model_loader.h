@@ -16,7 +16,7 @@
 #include "cfuse/constraints/graph.h"
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 // Reads the file at `path` into a graph; `where` is the include that asked for it.
 using IncludeHandler =
@@ -41,4 +41,4 @@ ConstraintGraph LoadModelFromString(std::string_view text, const std::string& di
                                     const std::string& base_directory,
                                     const LoadOptions& options = {});
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -13,8 +13,8 @@
 
 #include "cfuse/constraints/graph.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 std::string WriteModel(const ConstraintGraph& graph);
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -18,7 +18,7 @@
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/kernel/pose_set.h"
 
-namespace cfuse::dsl {
+namespace cfuse {
 
 PoseSet ReadPoses(const std::string& path);
 PoseSet ReadPosesFromString(std::string_view text, const std::string& display_name);
@@ -29,4 +29,4 @@ std::vector<JointValue> ReadJointValues(const std::string& path);
 std::vector<JointValue> ReadJointValuesFromString(std::string_view text,
                                                   const std::string& display_name);
 
-}  // namespace cfuse::dsl
+}  // namespace cfuse

@@ -19,7 +19,7 @@
 #include "cfuse/constraints/graph.h"
 #include "cfuse/kernel/measurements/camera.h"
 
-namespace cfuse::geometry {
+namespace cfuse {
 
 // One edge of a rigid component: its two feature points (indices into Component::points) and
 // the faces it bounds.
@@ -70,4 +70,4 @@ bool FrontFacing(const ConstraintGraph& graph, int component, int face, const Va
 bool ClipToRectangle(const Eigen::Vector2d& lo, const Eigen::Vector2d& hi, Eigen::Vector2d* a,
                      Eigen::Vector2d* b);
 
-}  // namespace cfuse::geometry
+}  // namespace cfuse

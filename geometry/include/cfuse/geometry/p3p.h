@@ -17,7 +17,7 @@
 #include "cfuse/kernel/measurements/camera.h"
 #include "cfuse/kernel/rigid3.h"
 
-namespace cfuse::geometry {
+namespace cfuse {
 
 // camera_from_object poses with λ_i bearing_i = R object_i + t and every depth λ_i > 0, for
 // unit bearings in the camera frame: the number written to *poses (0 to 4). None for
@@ -33,4 +33,4 @@ std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
                                                const std::array<Eigen::Vector3d, 3>& object_points,
                                                const std::array<Eigen::Vector2d, 3>& image_points);
 
-}  // namespace cfuse::geometry
+}  // namespace cfuse

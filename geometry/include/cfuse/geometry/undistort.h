@@ -13,9 +13,9 @@
 
 #include "cfuse/kernel/measurements/camera.h"
 
-namespace cfuse::geometry {
+namespace cfuse {
 
 // The normalised image coordinates of `pixel` (finite) for a pinhole camera.
 Eigen::Vector2d UndistortPoint(const Camera& camera, const Eigen::Vector2d& pixel);
 
-}  // namespace cfuse::geometry
+}  // namespace cfuse

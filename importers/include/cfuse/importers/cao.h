@@ -1,6 +1,6 @@
 // An object's ViSP CAO model (version 1) as a constraint model (docs/cao.md).
 //
-//   ConstraintGraph cube = importers::ImportCao("cube.cao");
+//   ConstraintGraph cube = ImportCao("cube.cao");
 //
 // ViSP's model-based trackers describe the object to track in a `.cao` file: a `V1` header,
 // optional `load("part.cao", t=[...], tu=[...])` lines, then six sections, each a count and
@@ -37,7 +37,7 @@
 #include "cfuse/constraints/graph.h"
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 
 inline constexpr size_t kMaxCaoFileBytes = 16u << 20;
 // Points, edges and faces of the whole model, loads counted in; a section's count and a face's
@@ -58,4 +58,4 @@ ConstraintGraph ImportCao(const std::string& path, const SourceLocation& include
 ConstraintGraph ImportCaoFromString(std::string_view text, const std::string& display_name,
                                     const std::string& base_directory = ".");
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

@@ -1,6 +1,6 @@
 // A robot's URDF as a constraint model (docs/urdf.md).
 //
-//   ConstraintGraph robot = importers::ImportUrdf("panda.urdf");
+//   ConstraintGraph robot = ImportUrdf("panda.urdf");
 //
 // urdfdom reads the robot; a first pass over the XML with TinyXML (the parser urdfdom itself
 // uses) checks what urdfdom would refuse without saying where, and what it accepts but a model
@@ -35,7 +35,7 @@
 #include "cfuse/constraints/graph.h"
 #include "cfuse/kernel/error.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 
 inline constexpr size_t kMaxUrdfFileBytes = 16u << 20;
 
@@ -46,4 +46,4 @@ ConstraintGraph ImportUrdf(const std::string& path, const SourceLocation& where 
 // The same from text in memory; `display_name` stands for the file in messages.
 ConstraintGraph ImportUrdfFromString(std::string_view xml, const std::string& display_name);
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

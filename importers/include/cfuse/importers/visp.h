@@ -1,8 +1,8 @@
 // ViSP's files as ViSP writes them (docs/formats.md "Cameras" and "Poses"): the camera of its
 // XML files and an object's pose as its tutorials save it.
 //
-//   Camera camera = importers::ReadVispCamera("Config/chateau.xml");
-//   Rigid3d camera_from_object = importers::ReadVispPose("chateau.0.pos");
+//   Camera camera = ReadVispCamera("Config/chateau.xml");
+//   Rigid3d camera_from_object = ReadVispPose("chateau.0.pos");
 //
 // CAMERAS. ViSP's pinhole camera (vpCameraParameters) maps normalised coordinates x = X/Z,
 // y = Y/Z to pixels by
@@ -63,7 +63,7 @@
 #include "cfuse/kernel/measurements/camera.h"
 #include "cfuse/kernel/rigid3.h"
 
-namespace cfuse::importers {
+namespace cfuse {
 
 inline constexpr size_t kMaxVispCameraFileBytes = 1u << 20;
 inline constexpr size_t kMaxVispPoseFileBytes = 1u << 20;
@@ -81,4 +81,4 @@ Camera ReadVispCameraFromString(std::string_view text, const std::string& displa
 Rigid3d ReadVispPose(const std::string& path);
 Rigid3d ReadVispPoseFromString(std::string_view text, const std::string& display_name);
 
-}  // namespace cfuse::importers
+}  // namespace cfuse

@@ -38,7 +38,7 @@ namespace cfuse {
 
 // camera_from_object from n >= 4 correspondences, or false. The CLI wires in OpenCV's solver
 // (vision/); without one, 2D-only components start from the global guess.
-using PoseFromProjections = std::function<bool(
+using PnpSolver = std::function<bool(
     const Camera& camera, const std::vector<Eigen::Vector3d>& object_points,
     const std::vector<Eigen::Vector2d>& image_points, Rigid3d* camera_from_object)>;
 
@@ -47,7 +47,7 @@ struct SolveOptions {
   double prior_extent_factor = 10.0;  // prior position sigma = factor x model extent
   double prior_rotation_sigma = 1.0;  // rad
   double prior_slack_sigma = 1e4;     // wide: near a limit the slack must move far (estimator.h)
-  PoseFromProjections pose_from_projections;
+  PnpSolver pose_from_projections;
   // Off: only the constraints within one component are fused, each component estimated from
   // its own measurements (the per-component baseline of the benchmarks, and the paper's
   // divide and conquer).

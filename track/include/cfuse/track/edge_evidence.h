@@ -25,7 +25,7 @@
 #include "cfuse/vision/normal_search.h"
 #include "cfuse/vision/segments.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 struct EdgeCandidate {
   int edge = -1;          // index into the frame's EdgeModels
@@ -66,7 +66,7 @@ class EdgeAppearance {
 };
 
 struct EvidenceOptions {
-  vision::NormalSearchOptions search;
+  NormalSearchOptions search;
   double sample_step = 5;       // px between samples along a piece
   double end_margin = 3;        // px left out at each end of a piece (the corner's other edge)
   double min_range = 4;         // px searched either side of a sample, at least
@@ -87,7 +87,7 @@ struct SearchStatistics {
 };
 
 // The normal-search candidates of every edge, in edge order.
-std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> NormalSearchCandidates(const GrayView& image,
                                                   const std::vector<EdgeModel>& edges,
                                                   const EdgeAppearance& appearance,
                                                   const EvidenceOptions& options,
@@ -99,16 +99,16 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const vision::GrayView& image,
 // kept when at least `min_support` of the samples (and 3) lie on it. Where matching is settled
 // (a refinement about an estimate), the strongest step near each sample is the edge's, whatever
 // texture lies beside it; a line of a few outlying samples does not tilt the fit.
-std::vector<EdgeCandidate> StrongestStepCandidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> StrongestStepCandidates(const GrayView& image,
                                                    const std::vector<EdgeModel>& edges,
                                                    const EdgeAppearance& appearance,
                                                    const EvidenceOptions& options, double reach);
 
 // The segment candidates of every edge (segments detected in the edges' window); `window`
 // receives the window searched (for overlays).
-std::vector<EdgeCandidate> SegmentCandidates(const vision::GrayView& image,
+std::vector<EdgeCandidate> SegmentCandidates(const GrayView& image,
                                              const std::vector<EdgeModel>& edges,
-                                             const vision::SegmentOptions& segments,
+                                             const SegmentOptions& segments,
                                              const EvidenceOptions& options);
 
 // The squared Mahalanobis distance of candidate c's midpoint offset and angle from edge e as
@@ -122,4 +122,4 @@ double CandidateProbability(const EdgeModel& e, const EdgeCandidate& c, double g
 // The length of candidate c along edge e's visible piece.
 double Overlap(const EdgeModel& e, const EdgeCandidate& c);
 
-}  // namespace cfuse::track
+}  // namespace cfuse

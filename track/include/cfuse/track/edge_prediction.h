@@ -18,10 +18,10 @@
 #include "cfuse/kernel/factor.h"
 #include "cfuse/kernel/measurements/camera.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 struct EdgeModel {
-  int edge = -1;         // index into geometry::ModelEdges()
+  int edge = -1;         // index into ModelEdges()
   int block = -1;        // its component's pose block
   Eigen::Vector3d A, B;  // the visible piece's ends, component coordinates
   Eigen::Vector2d a, b;  // its image, pixels
@@ -35,7 +35,7 @@ struct EdgeModel {
   double var_a = 0, var_b = 0, cov_ab = 0;
   double sigma_x = 0, sigma_y = 0;  // midpoint across (px) and angle (rad), noise included
   // px: a measured end's error across the edge: the model's and the camera's, and a twin's
-  // distance (geometry::ProjectedEdge::twin_width) for an edge of a face too thin to show.
+  // distance (ProjectedEdge::twin_width) for an edge of a face too thin to show.
   double noise = 1;
 
   // The standard deviation of the perpendicular position at fraction u of the piece (0 at a).
@@ -51,12 +51,12 @@ Factor EdgeFactor(const Camera& camera, const EdgeModel& e, const Eigen::Vector2
 // prediction is not finite (an end behind the camera).
 bool PredictVariance(const Camera& camera, const GaussianState& state, EdgeModel* e);
 
-// The visible pieces at `state`'s mean (geometry::VisibleEdges with `visibility`), those at least
+// The visible pieces at `state`'s mean (VisibleEdges with `visibility`), those at least
 // `min_pixels` long, with their variances.
 std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
-                                    const std::vector<geometry::ModelEdge>& edges,
+                                    const std::vector<ModelEdge>& edges,
                                     const GaussianState& state, const Camera& camera,
-                                    const geometry::Visibility& visibility, double pixel_sigma,
+                                    const Visibility& visibility, double pixel_sigma,
                                     double min_pixels);
 
 // Each piece where `state` projects its ends, with that state's variances: the edges as a
@@ -64,4 +64,4 @@ std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
 void Reproject(const ConstraintGraph& graph, const Camera& camera, const GaussianState& state,
                std::vector<EdgeModel>* edges);
 
-}  // namespace cfuse::track
+}  // namespace cfuse

@@ -25,7 +25,7 @@
 #include "cfuse/track/edge_evidence.h"
 #include "cfuse/track/edge_prediction.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 struct MatchSearchOptions {
   int max_branches = 5;              // match sets tried
@@ -37,7 +37,7 @@ struct MatchSearchOptions {
 
 // A model edge's match: the measured image line.
 struct MatchedLine {
-  int edge = -1;  // index into geometry::ModelEdges()
+  int edge = -1;  // index into ModelEdges()
   Eigen::Vector2d a, b;
 };
 
@@ -90,4 +90,4 @@ bool SolveMatches(const std::vector<Factor>& constraints, const GaussianState& p
                   const std::vector<Factor>& factors, const std::vector<Block>& blocks, int dof,
                   double accept_confidence, MatchedSet* out);
 
-}  // namespace cfuse::track
+}  // namespace cfuse

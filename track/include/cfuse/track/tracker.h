@@ -52,7 +52,7 @@
 #include "cfuse/track/verification.h"
 #include "cfuse/vision/segments.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 // Where edge evidence comes from (cfuse/track/edge_evidence.h).
 enum class EdgeEvidence { kNormalSearch, kSegments };
@@ -124,8 +124,8 @@ struct TrackerOptions {
   // degrees from edge-on and 6 px across or more, hidden lines removed. A thin plate's rim or a
   // face seen nearly edge-on puts its edges within a pixel or two of each other, and a line matched
   // to the wrong one of such twins bends the estimate.
-  geometry::Visibility visibility{0.17, 6, true};
-  vision::SegmentOptions segments;  // for EdgeEvidence::kSegments
+  Visibility visibility{0.17, 6, true};
+  SegmentOptions segments;  // for EdgeEvidence::kSegments
 };
 
 // Milliseconds per stage of one frame.
@@ -146,7 +146,7 @@ struct FrameTimes {
 // A predicted edge, for overlays: its ends and the standard deviation of where the image shows
 // it, across the edge, at each end (px).
 struct PredictedEdge {
-  int edge = -1;  // index into geometry::ModelEdges()
+  int edge = -1;  // index into ModelEdges()
   Eigen::Vector2d a, b;
   double sigma_a = 0, sigma_b = 0;
   bool matched = false;
@@ -187,7 +187,7 @@ class Tracker {
   Tracker(const ConstraintGraph& graph, const Camera& camera, const Values& initial,
           TrackerOptions options = {});
 
-  TrackedFrame Track(const vision::GrayView& image);
+  TrackedFrame Track(const GrayView& image);
   // A frame with no image (missing or unreadable): the object moved on all the same, and the
   // next frame predicts across the gap.
   void Skip() { ++frame_; }
@@ -199,7 +199,7 @@ class Tracker {
   Values Predicted() const;
   // The prior about `predicted`, `scale` times the usual reach.
   FramePrior Prior(const Values& predicted, double scale) const;
-  bool TryFrom(const vision::GrayView& image, const FramePrior& prior, TrackedFrame* out);
+  bool TryFrom(const GrayView& image, const FramePrior& prior, TrackedFrame* out);
   // The largest ratio of a component's standard deviation after the matches to before, in any
   // direction (1: the matches taught nothing of it).
   double Spread(const GaussianState& before, const GaussianState& after) const;
@@ -208,7 +208,7 @@ class Tracker {
   // Re-acquisition: the frame tracked from places in rings about `centre` (a ring further out
   // each frame: `reacquisition_ring_`); keeps in `out` the best verified estimate (the most of
   // the outline supported) of the first ring that finds one. True when one was found.
-  bool Reacquire(const vision::GrayView& image, const Values& centre, TrackedFrame* out);
+  bool Reacquire(const GrayView& image, const Values& centre, TrackedFrame* out);
   // The root component's origin (camera frame), and px per metre across the line of sight at
   // `depth`.
   Eigen::Vector3d RootOrigin(const Values& values) const;
@@ -217,7 +217,7 @@ class Tracker {
   // search_pixels in the image in the direction `angle` (rad; 0 along the image's x).
   Values RingPlace(const Values& centre, int ring, double angle) const;
   // The frame tracked from `place` with twice the usual reach.
-  TrackedFrame TryPlace(const vision::GrayView& image, const Values& place);
+  TrackedFrame TryPlace(const GrayView& image, const Values& place);
   // Place k about `centre` along the line of sight through the root's origin: nearer, further,
   // twice as near, ... (steps that move the outline's points as far as a ring's).
   Values DepthPlace(const Values& centre, int k) const;
@@ -237,23 +237,23 @@ class Tracker {
   static double Evidence(const Verification& v);
   // A frame verified with nothing verified before it, replaced by a decisively better pose
   // verified from places about its estimate (TrackerOptions::settle_places).
-  void Settle(const vision::GrayView& image, TrackedFrame* out);
+  void Settle(const GrayView& image, TrackedFrame* out);
   // Every edge of a model of several parts where `values` projects it, hidden or not
   // (VerifyOutline's `model`); none for a single part.
   std::vector<ModelLine> ModelLines(const Values& values) const;
   // The squared Mahalanobis distance of `mean` from `prior` (over the whole tangent space).
   double PriorDistance(const GaussianState& prior, const Values& mean) const;
-  std::vector<EdgeCandidate> Candidates(const vision::GrayView& image,
+  std::vector<EdgeCandidate> Candidates(const GrayView& image,
                                         const std::vector<EdgeModel>& edges) const;
   // A set that passed, matched again from evidence searched around its own estimate: every
   // edge's most probable line, matches beyond three robust standard deviations dropped, the
   // rest solved with the noise their residuals show (at least the tracker's model sigma).
-  void Refine(const vision::GrayView& image, const FramePrior& prior, MatchedSet* set) const;
+  void Refine(const GrayView& image, const FramePrior& prior, MatchedSet* set) const;
 
   const ConstraintGraph& graph_;
   Camera camera_;
   TrackerOptions options_;
-  std::vector<geometry::ModelEdge> edges_;
+  std::vector<ModelEdge> edges_;
   std::vector<Factor> constraints_;
   std::vector<double> radius_;  // per block: its component's points' RMS distance from its origin
   int dof_ = 6;
@@ -277,4 +277,4 @@ class Tracker {
   double typical_share_ = 0;
 };
 
-}  // namespace cfuse::track
+}  // namespace cfuse

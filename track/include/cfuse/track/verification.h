@@ -33,7 +33,7 @@
 #include "cfuse/track/edge_evidence.h"
 #include "cfuse/track/edge_prediction.h"
 
-namespace cfuse::track {
+namespace cfuse {
 
 struct VerificationOptions {
   double step = 4;         // px between samples
@@ -107,12 +107,12 @@ struct ModelLine {
 // model at the estimate, hidden ones too; a part's support where another part's edge lies along
 // its own (within the reach, within 15 degrees) is not the part's own: a lid shut on its box's
 // rim finds all its steps on the rim, a lid standing open only its hinge's.
-Verification VerifyOutline(const vision::GrayView& image, const std::vector<EdgeModel>& edges,
-                           const vision::NormalSearchOptions& search,
+Verification VerifyOutline(const GrayView& image, const std::vector<EdgeModel>& edges,
+                           const NormalSearchOptions& search,
                            const VerificationOptions& options,
                            const std::vector<ModelLine>& model = {});
 
 // Records a verified frame's steps in `appearance` and commits them.
 void Remember(const Verification& verification, EdgeAppearance* appearance);
 
-}  // namespace cfuse::track
+}  // namespace cfuse

@@ -29,7 +29,7 @@
 
 #include "cfuse/kernel/measurements/camera.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 // Whether the file begins like one of cv::FileStorage's formats: `%YAML:1.` (OpenCV's own
 // spelling of the directive, which standard YAML writes `%YAML 1.x`), an XML document whose root
@@ -44,4 +44,4 @@ Camera ReadOpenCvCamera(const std::string& path);
 // messages. Any text is safe: what OpenCV cannot read is an InputError, never a crash.
 Camera ReadOpenCvCameraFromString(std::string_view text, const std::string& display_name);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -28,7 +28,7 @@
 
 #include "cfuse/vision/segments.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 struct NormalSearchOptions {
   double min_contrast = 10;  // grey levels: |D| a hit needs
@@ -52,4 +52,4 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
                       const Eigen::Vector2f& normal, float range,
                       const NormalSearchOptions& options, std::vector<ProfileHit>* hits);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

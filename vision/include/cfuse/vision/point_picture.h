@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace cfuse::vision {
+namespace cfuse {
 
 struct PictureMarker {
   enum class Kind {
@@ -32,4 +32,4 @@ std::string PointPicturePng(const std::vector<PictureMarker>& markers,
                             const std::vector<PictureSegment>& segments, const std::string& title,
                             int width = 1200, int height = 640);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -56,7 +56,7 @@
 #include "cfuse/kernel/measurements/camera.h"
 #include "cfuse/vision/texture.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 enum class RenderStyle { kPlain, kRealistic };
 
@@ -119,7 +119,7 @@ struct RenderOptions {
 };
 
 struct TruthSegment {
-  int edge = -1;  // index into geometry::ModelEdges()
+  int edge = -1;  // index into ModelEdges()
   Eigen::Vector2d a, b;
 };
 
@@ -138,4 +138,4 @@ Rendering Render(const ConstraintGraph& graph, const Values& values, const Camer
 // The PNG bytes of an 8-bit grey image.
 std::vector<std::uint8_t> EncodePng(const std::vector<std::uint8_t>& pixels, int width, int height);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

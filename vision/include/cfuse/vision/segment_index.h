@@ -14,7 +14,7 @@
 
 #include "cfuse/vision/segments.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 class SegmentIndex {
  public:
@@ -46,4 +46,4 @@ class SegmentIndex {
   mutable int last_cells_ = 0;
 };
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

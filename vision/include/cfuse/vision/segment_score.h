@@ -12,7 +12,7 @@
 
 #include "cfuse/vision/segments.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 struct CoverageOptions {
   double max_distance = 1.5;          // px
@@ -29,4 +29,4 @@ struct Coverage {
 Coverage CoverTruth(const std::vector<std::pair<Eigen::Vector2d, Eigen::Vector2d>>& truth,
                     const std::vector<ImageSegment>& detected, const CoverageOptions& options = {});
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -32,7 +32,7 @@
 #include <string>
 #include <vector>
 
-namespace cfuse::vision {
+namespace cfuse {
 
 // A grey image in memory, 8 bits per pixel, rows `step` bytes apart (not owned).
 struct GrayView {
@@ -86,4 +86,4 @@ std::vector<ImageSegment> DetectSegments(const GrayView& image, const SegmentOpt
 std::vector<ImageSegment> SubdivideChain(const std::vector<Eigen::Vector2f>& chain,
                                          double min_deviation, double min_length);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

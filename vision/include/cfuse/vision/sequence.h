@@ -20,7 +20,7 @@
 #include "cfuse/kernel/measurements/camera.h"
 #include "cfuse/vision/render.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 struct SequenceSpec {
   int frames = 60;
@@ -116,4 +116,4 @@ std::vector<SequenceFrame> RenderSequence(const ConstraintGraph& graph, const Ca
 // The configuration of frame i alone (no rendering); at a fractional i, the instant between.
 Values SequencePose(const ConstraintGraph& graph, const SequenceSpec& spec, double i);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

@@ -27,7 +27,7 @@
 
 #include "cfuse/constraints/graph.h"
 
-namespace cfuse::vision {
+namespace cfuse {
 
 // An 8-bit grey image held in memory: row-major, `width` bytes a row, pixel centres at integer
 // coordinates.
@@ -86,4 +86,4 @@ std::vector<FaceTexture> FaceTextures(const ConstraintGraph& graph,
                                       const std::vector<GrayImage>& photographs, unsigned seed,
                                       double contrast);
 
-}  // namespace cfuse::vision
+}  // namespace cfuse

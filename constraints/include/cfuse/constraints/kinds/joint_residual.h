@@ -6,6 +6,7 @@
 #include <fmt/format.h>
 
 #include "cfuse/constraints/graph.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/joint_frames.h"
 #include "cfuse/constraints/kinds/kind_support.h"
 
@@ -48,7 +49,7 @@ class JointValueFunction : public AutoDiffResidual<JointValueFunction> {
 
   // The branch centre for joint `j`: the middle of its limits, or 0.
   static double BranchCentre(const Joint& j) {
-    return j.limits && j.type != JointType::kPrismatic ? 0.5 * (j.limits->first + j.limits->second)
+    return j.limits && !ModelOf(j.type).VariableIsLength() ? 0.5 * (j.limits->first + j.limits->second)
                                                        : 0.0;
   }
 

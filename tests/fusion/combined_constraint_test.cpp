@@ -6,7 +6,7 @@
 #include <catch2/catch.hpp>
 #include <random>
 
-#include "../constraints/jacobian_checker.h"
+#include "constraints/jacobian_checker.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/evaluate.h"
@@ -35,7 +35,7 @@ std::vector<BlockKind> Kinds(const ConstraintGraph& g) {
 // The lamp's elbow as the paper models it (examples/lamp.yaml carries the axis as a vector
 // equality): distances and a parallel hinge axis, p6-p7 at the shoulder and p8-p9 at the elbow.
 ConstraintGraph Elbow() {
-  return dsl::LoadModelFromString(R"yaml(
+  return LoadModelFromString(R"yaml(
 name: elbow
 units: {length: mm, angle: deg}
 points:
@@ -134,7 +134,7 @@ TEST_CASE("combined constraint: places a point whose constraints are degenerate 
 
 TEST_CASE("fusion summary: the final NIS equals the innovation NIS for an affine factor",
           "[kernel]") {
-  const ConstraintGraph g = dsl::LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
   GaussianState state = MakePrior(g.blocks, g.nominal, PriorScale{1.0, 1.0, 10.0});
   const Component& c = g.components[g.FindComponent("p3")];
   const Eigen::Vector3d z = g.nominal.points[g.blocks[c.block].index] + Eigen::Vector3d(1, 2, 3);

@@ -140,7 +140,7 @@ TEST_CASE("estimator: contradictory constraints are refused; the state is left a
   CHECK(state.mean.points[0] == before.mean.points[0]);
 }
 
-ConstraintGraph Lamp() { return dsl::LoadModel(testing::SourcePath("examples/lamp.yaml")); }
+ConstraintGraph Lamp() { return LoadModel(testing::SourcePath("examples/lamp.yaml")); }
 
 // The lamp at a random pose, measured with isotropic noise; `measured` gets the measured
 // points as a Values.

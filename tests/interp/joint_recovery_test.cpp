@@ -27,7 +27,7 @@ namespace fs = std::filesystem;
 // triangle 6-8 cm across around the link frame; without the base's, its yaw and the first
 // joint trade freely), written beside the test's temporary files.
 ConstraintGraph WithMarkers(const std::string& urdf) {
-  const ConstraintGraph robot = importers::ImportUrdf(urdf);
+  const ConstraintGraph robot = ImportUrdf(urdf);
   const fs::path dir = fs::temp_directory_path() / "cfuse_joint_recovery";
   fs::create_directories(dir);
   std::ofstream out(dir / "markers.yaml");
@@ -39,11 +39,11 @@ ConstraintGraph WithMarkers(const std::string& urdf) {
     out << "  " << link << "_m3: {link: " << link << ", xyz: [0.01, -0.03, 0.08]}\n";
   }
   out.close();
-  dsl::LoadOptions options;
+  LoadOptions options;
   options.include_handlers[".urdf"] = [](const std::string& path, const SourceLocation& where) {
-    return importers::ImportUrdf(path, where);
+    return ImportUrdf(path, where);
   };
-  return dsl::LoadModel((dir / "markers.yaml").string(), options);
+  return LoadModel((dir / "markers.yaml").string(), options);
 }
 
 bool IsMarker(const std::string& label) {
