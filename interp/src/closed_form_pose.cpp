@@ -2,6 +2,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/SVD>
 
 #include "cfuse/kernel/svd.h"
 
@@ -23,8 +24,10 @@ bool AbsoluteOrientation(const std::vector<Eigen::Vector3d>& from,
   const int n = static_cast<int>(from.size());
   if (n < 3 || to.size() != from.size()) return false;
   Eigen::Vector3d centre;
+  // A fixed-size SVD here, not ComputeSvd: the interpretation's seeds call this for every
+  // triple they try.
   const Eigen::Vector3d s =
-      ComputeSvd(Centred(from, &centre).transpose(), SingularVectors::kNone).singular_values;
+      Eigen::JacobiSVD<Eigen::Matrix3Xd>(Centred(from, &centre)).singularValues();
   if (!(s[1] > 1e-6 * std::max(s[0], 1e-12))) return false;  // collinear
   Eigen::Matrix3Xd a(3, n), b(3, n);
   for (int i = 0; i < n; ++i) {
