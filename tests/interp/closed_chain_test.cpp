@@ -10,20 +10,13 @@
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
+#include "constraints/largest_equality.h"
 #include "test_util.h"
 
 namespace cfuse {
 namespace {
 
-double LargestEquality(const ConstraintGraph& g, const Values& values) {
-  double largest = 0;
-  Eigen::VectorXd r;
-  for (const Constraint& c : g.constraints) {
-    EvaluateResidual(*c.residual, g.blocks, c.blocks, values, &r, nullptr);
-    if (c.slack_block < 0) largest = std::max(largest, r.cwiseAbs().maxCoeff());
-  }
-  return largest;
-}
+using testing::LargestEquality;
 
 ConstraintGraph FourBar() { return LoadModel(testing::SourcePath("examples/four-bar.yaml")); }
 
