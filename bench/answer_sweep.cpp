@@ -33,7 +33,6 @@
 #include "cfuse/interp/interpretation.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
-#include "cfuse/vision/pnp.h"
 #include "cfuse/vision/sequence.h"
 
 namespace {
@@ -127,12 +126,10 @@ int Run(int argc, char** argv) {
           std::optional<Solution> solution;
           if (clutter == 0) {
             SolveOptions options;
-            options.pose_from_projections = &PoseFromProjections;
             options.reject_outliers = true;
             solution = Solve(g, sim.measurements, options);
           } else {
             InterpretOptions options;
-            options.solve.pose_from_projections = &PoseFromProjections;
             const Interpretation in = Interpret(g, sim.measurements, options);
             if (in.Refusal().empty()) solution = in.solution;  // else refused, as the CLI does
           }

@@ -44,7 +44,6 @@
 #include "cfuse/interp/interpretation.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
-#include "cfuse/vision/pnp.h"
 #include "cfuse/vision/sequence.h"
 
 namespace {
@@ -73,7 +72,6 @@ T Quantile(std::vector<T> v, double q) {
 
 InterpretOptions Config(const std::string& name) {
   InterpretOptions o;
-  o.solve.pose_from_projections = &PoseFromProjections;
   if (name == "paper") {
     o.joint_compatibility = false;
     o.probability_order = false;

@@ -29,7 +29,6 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/error.h"
 #include "cfuse/kernel/evaluate.h"
-#include "cfuse/vision/pnp.h"
 #include "cli/command_support.h"
 #include "cli/results.h"
 #include "cli/summary.h"
@@ -119,7 +118,6 @@ int RunCheck(const CheckCommandOptions& options, std::ostream& out, std::ostream
     if (!options.measurements.empty()) {
       const MeasurementSet set = ReadMeasurements(options.measurements);
       SolveOptions solve;
-      solve.pose_from_projections = &PoseFromProjections;
       solve.reject_outliers = true;
       solution = Solve(graph, set, solve);
     }
@@ -187,14 +185,12 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
     std::optional<double> residual_variance;
     if (options.method == "parametric") {
       ParametricOptions parametric;
-      parametric.pose_from_projections = &PoseFromProjections;
       parametric.guess = guess ? &*guess : nullptr;
       ParametricSolution p = SolveParametric(graph, set, parametric);
       solution = std::move(p.solution);
       residual_variance = p.residual_variance;
     } else {
       SolveOptions solve_options;
-      solve_options.pose_from_projections = &PoseFromProjections;
       solve_options.guess = guess ? &*guess : nullptr;
       solve_options.use_constraints_between_components = options.method != "components";
       solve_options.reject_outliers = true;
@@ -247,7 +243,6 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
     InterpretOptions interpret;
     interpret.gate_confidence = options.gate;
     interpret.max_nodes = options.max_nodes;
-    interpret.solve.pose_from_projections = &PoseFromProjections;
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(graph, set, interpret);
     const double ms =

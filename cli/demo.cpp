@@ -16,7 +16,6 @@
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/track/tracker.h"
-#include "cfuse/vision/pnp.h"
 #include "cfuse/vision/point_picture.h"
 #include "cfuse/vision/sequence.h"
 #include "cli/command_support.h"
@@ -159,7 +158,6 @@ int RunDemo(const DemoCommandOptions& options, std::ostream& out, std::ostream& 
         graph.components.size(), sim.measurements.points.size() - real);
 
     InterpretOptions interpret;
-    interpret.solve.pose_from_projections = &PoseFromProjections;
     const auto start = std::chrono::steady_clock::now();
     const Interpretation in = Interpret(graph, sim.measurements, interpret);
     const double ms =

@@ -506,9 +506,7 @@ ParametricSolution SolveParametric(const ConstraintGraph& graph, const Measureme
   const int n = f.size;
 
   // The start: the components' closed-form poses (or the guess), read as parameters.
-  SolveOptions start_options;
-  start_options.pose_from_projections = options.pose_from_projections;
-  Values start = ClosedFormStart(graph, set, solution.labels, start_options);
+  Values start = ClosedFormStart(graph, set, solution.labels);
   if (options.guess) ApplyGuess(graph, *options.guess, &start);
   const Configuration prior = FromPoses(graph, f, start);
   Configuration x = prior;

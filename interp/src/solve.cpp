@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
+#include <numeric>
 
 #include "cfuse/interp/closed_form_pose.h"
 #include "cfuse/interp/joint_estimates.h"
@@ -97,7 +98,7 @@ LabelledStart SolveStart(const ConstraintGraph& graph, const MeasurementSet& set
       });
   Values initial = start              ? *start
                    : guess_covers_all ? graph.nominal
-                                      : ClosedFormStart(graph, set, labels, options);
+                                      : ClosedFormStart(graph, set, labels);
 
   Values unplaced;
   if (start) {
@@ -119,14 +120,18 @@ LabelledStart SolveStart(const ConstraintGraph& graph, const MeasurementSet& set
   return {std::move(initial), std::move(unplaced)};
 }
 
+// Per factor: the first residual row and the name of each measurement it stacks.
+using StackedNames = std::vector<std::vector<std::pair<int, std::string>>>;
+
 // The factors of a labelled solve, in the order that keeps correlation groups small: one factor per
 // single point measurement, and one per rigid component stacking all its measurements
 // (measurements/stacked.h), in the order of their first measurement. An image measurement whose
-// point is at or behind the camera at `initial` is left out and reported in `invalid`.
+// point is at or behind the camera at `initial` is left out and reported in `invalid`. For each
+// factor, `stacked` gets the first residual row and the name of each measurement it stacks.
 std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const MeasurementSet& set,
                                  const SolveOptions& options,
                                  const std::vector<ResolvedLabel>& labels, const Values& initial,
-                                 std::vector<std::string>* invalid) {
+                                 std::vector<std::string>* invalid, StackedNames* stacked) {
   std::vector<Factor> factors;
   std::vector<int> component_factor(graph.components.size(), -1);
   std::vector<std::vector<std::shared_ptr<const ResidualFunction>>> parts;
@@ -158,6 +163,12 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
       parts.emplace_back();
       noises.emplace_back();
     }
+    if (stacked->size() <= static_cast<size_t>(k)) stacked->resize(static_cast<size_t>(k) + 1);
+    (*stacked)[k].emplace_back(std::accumulate(noises[k].begin(), noises[k].end(), 0,
+                                               [](int n, const Eigen::MatrixXd& x) {
+                                                 return n + static_cast<int>(x.rows());
+                                               }),
+                               fmt::format("measurement {} ({})", r.measurement, m.label));
     parts[k].push_back(f);
     noises[k].push_back(noise);
   }
@@ -257,8 +268,9 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   scale.rotation = options.prior_rotation_sigma;
   scale.slack = options.prior_slack_sigma;
   solution->state = MakePrior(graph.blocks, initial, scale);
+  StackedNames stacked;
   std::vector<Factor> factors =
-      SolveFactors(graph, set, options, labels, initial, &solution->invalid);
+      SolveFactors(graph, set, options, labels, initial, &solution->invalid, &stacked);
   SequenceOptions sequence = options.sequence;
   sequence.constraint_tolerance = 1e-8 * solution->extent;
   // An answer on a limit does not claim the limit known to zero variance (a Stewart platform
@@ -315,8 +327,16 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     if (solution->summary.fusions[i].status == FusionSummary::Status::kContradiction) {
       solution->contradictions.push_back(factors[i].name);
     }
-    if (solution->summary.fusions[i].status == FusionSummary::Status::kInvalid) {
-      solution->invalid.push_back(factors[i].name + ": not finite at the estimate");
+    const FusionSummary& fusion = solution->summary.fusions[i];
+    if (fusion.status == FusionSummary::Status::kInvalid) {
+      std::string culprit;
+      for (const auto& [first_row, name] :
+           i < stacked.size() ? stacked[i] : StackedNames::value_type{}) {
+        if (fusion.invalid_row >= first_row) culprit = name;
+      }
+      solution->invalid.push_back(
+          factors[i].name + ": not finite at the estimate" +
+          (culprit.empty() || fusion.invalid_row < 0 ? "" : ", first at " + culprit));
     }
   }
 }

@@ -10,6 +10,7 @@
 #include <cmath>
 #include <map>
 
+#include "cfuse/geometry/pnp.h"
 #include "cfuse/interp/closed_form_pose.h"
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/schedule.h"
@@ -47,16 +48,18 @@ struct Correspondences {
 };
 
 // measured_from_model in closed form: absolute orientation from 3D points, else from image
-// points (the PnP solver for a pinhole camera; OrthographicPose, with the model points'
-// centroid kept at `depth`, for an orthographic one); false when there are too few points.
-bool ClosedFormPose(const Correspondences& k, const MeasurementSet& set,
-                    const SolveOptions& options, double depth, Rigid3d* pose) {
+// points (PnP for a pinhole camera; OrthographicPose, with the model points' centroid kept at
+// `depth`, for an orthographic one); false when there are too few points.
+bool ClosedFormPose(const Correspondences& k, const MeasurementSet& set, double depth,
+                    Rigid3d* pose) {
   Rigid3d found;  // *pose is written only on success
   bool ok = AbsoluteOrientation(k.model3, k.measured3, &found);
   if (!ok && set.camera && set.camera->model == Camera::Model::kOrthographic) {
     ok = OrthographicPose(*set.camera, k.model2, k.measured2, depth, &found);
-  } else if (!ok && set.camera && k.model2.size() >= 4 && options.pose_from_projections) {
-    ok = options.pose_from_projections(*set.camera, k.model2, k.measured2, &found);
+  } else if (!ok && set.camera) {
+    PnpResult pnp;
+    ok = PoseFromProjections(*set.camera, k.model2, k.measured2, &pnp);
+    found = pnp.camera_from_object;
   }
   if (ok) *pose = found;
   return ok;
@@ -293,8 +296,7 @@ bool PlacePoint(const ConstraintGraph& g, const std::vector<int>& list, int bloc
 }
 
 Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
-                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options,
-                       bool each_component) {
+                       const std::vector<ResolvedLabel>& labels, bool each_component) {
   // 1. A global rigid guess from all labelled points against the nominal geometry.
   Correspondences global;
   std::vector<Correspondences> per_component(graph.components.size());
@@ -307,7 +309,7 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
   }
   Rigid3d world_from_nominal;
   // An orthographic camera does not see depth: the model stays at its declared depth.
-  if (!ClosedFormPose(global, set, options, MeanDepth(global.model2), &world_from_nominal) &&
+  if (!ClosedFormPose(global, set, MeanDepth(global.model2), &world_from_nominal) &&
       (global.model3.size() == 1 || global.model3.size() == 2)) {
     // One or two 3D points: a translation at least.
     world_from_nominal =
@@ -333,7 +335,7 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
     Rigid3d& current = PoseOf(graph, initial, static_cast<int>(c));
     std::vector<Eigen::Vector3d> in_world;
     for (const Eigen::Vector3d& p : k.model2) in_world.push_back(current * p);
-    ClosedFormPose(k, set, options, MeanDepth(in_world), &current);
+    ClosedFormPose(k, set, MeanDepth(in_world), &current);
   }
   return initial;
 }
@@ -385,8 +387,8 @@ void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured
 void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& used,
                    Solution* solution) {
-  const Values each = ClosedFormStart(graph, set, used, options, true);
-  const Values whole = ClosedFormStart(graph, set, used, options, false);
+  const Values each = ClosedFormStart(graph, set, used, true);
+  const Values whole = ClosedFormStart(graph, set, used, false);
   std::vector<Values> starts = {whole};
   for (const Values* base : {&each, &whole}) {
     Values mirrored = *base;

@@ -455,6 +455,9 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
     EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
     if (!r.allFinite() || !H.allFinite()) {
       summary.status = FusionSummary::Status::kInvalid;
+      for (int i = 0; i < m && summary.invalid_row < 0; ++i) {
+        if (!std::isfinite(r(i)) || !H.row(i).allFinite()) summary.invalid_row = i;
+      }
       return summary;
     }
     // The innovation H δ - r; then S = H P0 Hᵀ (+ R) whitened (small_blas.h).

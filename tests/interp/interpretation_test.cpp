@@ -11,7 +11,6 @@
 
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/interp/simulate.h"
-#include "cfuse/vision/pnp.h"
 #include "cfuse/vision/sequence.h"
 #include "test_util.h"
 
@@ -31,7 +30,6 @@ Tally Run(const ConstraintGraph& g, int trials, double clutter, double occlusion
           const std::optional<Camera>& camera = std::nullopt) {
   Tally t;
   InterpretOptions options;
-  options.solve.pose_from_projections = &PoseFromProjections;
   for (int i = 0; i < trials; ++i) {
     SimulateOptions so;
     so.seed = 100 + i;
@@ -399,7 +397,6 @@ TEST_CASE("interpret: an image answer with too few predicted matches is refused"
   so.clutter = 1;
   so.camera = StandardCamera();
   InterpretOptions options;
-  options.solve.pose_from_projections = &PoseFromProjections;
   for (unsigned seed : {113u, 114u, 140u}) {
     INFO("seed " << seed);
     so.seed = seed;
@@ -430,7 +427,6 @@ TEST_CASE("solve: a near-planar object from one image is started at its answer's
   so.camera = StandardCamera();
   const Simulation sim = Simulate(g, so);
   SolveOptions options;
-  options.pose_from_projections = &PoseFromProjections;
   options.reject_outliers = true;
   const Solution solution = Solve(g, sim.measurements, options);
   REQUIRE(solution.accepted());

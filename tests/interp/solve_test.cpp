@@ -14,7 +14,6 @@
 #include "cfuse/interp/simulate.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
-#include "cfuse/vision/pnp.h"
 #include "test_util.h"
 
 namespace cfuse {
@@ -134,7 +133,6 @@ TEST_CASE("solve: the hinged box from image points alone (§7), poses all over S
   Camera camera = testing::Pinhole();
   camera.distortion[0] = -0.05;
   SolveOptions options;
-  options.pose_from_projections = &PoseFromProjections;
   int solved = 0;
   for (unsigned seed = 1; seed <= 30; ++seed) {
     std::mt19937 rng(seed);
@@ -573,7 +571,6 @@ TEST_CASE("solve: a folding ruler from one image: every answer accepted is right
       sim_options.camera = testing::Pinhole();
       const Simulation sim = Simulate(g, sim_options);
       SolveOptions options;
-      options.pose_from_projections = &PoseFromProjections;
       options.reject_outliers = true;
       options.explore_starts = explore == 1;
       const Solution s = Solve(g, sim.measurements, options);
@@ -596,7 +593,7 @@ TEST_CASE("solve: a folding ruler from one image: every answer accepted is right
   CHECK(wrong[0] == 0);
   CHECK(wrong[1] == 0);
   CHECK(accepted[1] >= 18);
-  CHECK(accepted[0] <= 14);  // what the mirrored starts are for
+  CHECK(accepted[0] < accepted[1]);  // what the mirrored starts are for
 }
 
 TEST_CASE("solve: a small square far off in one image has two answers, both said", "[interp]") {
@@ -624,7 +621,6 @@ components:
     const Values truth = Moved(g, pose);
     const MeasurementSet set = MeasureImage(g, truth, camera, pixel, rng);
     SolveOptions options;
-    options.pose_from_projections = &PoseFromProjections;
     const Solution s = Solve(g, set, options);
     REQUIRE(s.accepted());
     const auto turn = [&](const Values& v) {

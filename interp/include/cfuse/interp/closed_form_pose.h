@@ -10,8 +10,7 @@
 //    Coplanar points fix the rotation only up to the mirror image about the image plane (the
 //    Necker reversal, unavoidable under orthography); the solution whose plane normal points
 //    towards the camera is returned.
-// (Pinhole cameras use OpenCV's SQPnP, and P3P for three points: cfuse/vision/pnp.h,
-// cfuse/geometry/p3p.h.)
+// (Pinhole cameras: PnP and P3P in cfuse/geometry/pnp.h and cfuse/geometry/p3p.h.)
 #pragma once
 
 #include <Eigen/Core>

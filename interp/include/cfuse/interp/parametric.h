@@ -51,7 +51,6 @@ struct ParametricOptions {
   // `prior_rotation_sigma`.
   double prior_extent_factor = 10.0;
   double prior_rotation_sigma = 1.0;          // rad
-  PnpSolver pose_from_projections;  // starts from image points (solve.h)
   const PoseSet* guess = nullptr;             // starting poses by name, as Solve's
 };
 

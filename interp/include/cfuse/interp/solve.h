@@ -22,7 +22,6 @@
 //     leaves the covariance ill-conditioned.)
 #pragma once
 
-#include <functional>
 #include <optional>
 #include <string>
 #include <vector>
@@ -36,18 +35,11 @@
 
 namespace cfuse {
 
-// camera_from_object from n >= 4 correspondences, or false. The CLI wires in OpenCV's solver
-// (vision/); without one, 2D-only components start from the global guess.
-using PnpSolver = std::function<bool(
-    const Camera& camera, const std::vector<Eigen::Vector3d>& object_points,
-    const std::vector<Eigen::Vector2d>& image_points, Rigid3d* camera_from_object)>;
-
 struct SolveOptions {
   SequenceOptions sequence;
   double prior_extent_factor = 10.0;  // prior position sigma = factor x model extent
   double prior_rotation_sigma = 1.0;  // rad
   double prior_slack_sigma = 1e4;     // wide: near a limit the slack must move far (estimator.h)
-  PnpSolver pose_from_projections;
   // Off: only the constraints within one component are fused, each component estimated from
   // its own measurements (the per-component baseline of the benchmarks, and the paper's
   // divide and conquer).
@@ -138,8 +130,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
 // component with enough labels at its own closed-form pose (options.guess is not applied).
 // `each_component` false: step 1 alone, the nominal geometry moved as one body.
 Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
-                       const std::vector<ResolvedLabel>& labels, const SolveOptions& options,
-                       bool each_component = true);
+                       const std::vector<ResolvedLabel>& labels, bool each_component = true);
 
 // The guess's poses and points in place of `values`' (a merged link's frame places its
 // component); an unknown name is an InputError at its entry.

@@ -96,6 +96,9 @@ struct FusionSummary {
   // one (a point on a turning part) it does not count the linearisation error at the prior.
   double final_nis = 0;
   double contradiction = 0;  // the largest normalised innovation along a determined direction
+  // kInvalid: the first residual row that was not finite, or whose Jacobian row was not (-1 for
+  // a whitening that failed), so that a caller stacking many measurements can name the one.
+  int invalid_row = -1;
 
   bool changed_state() const {
     return status == Status::kFused || status == Status::kPartlyRedundant ||
