@@ -7,9 +7,7 @@
 #include <random>
 
 #include "cfuse/constraints/dof.h"
-#include "cfuse/dsl/measurement_reader.h"
 #include "cfuse/dsl/model_loader.h"
-#include "cfuse/interp/interpretation.h"
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/kernel/chi_square.h"
@@ -346,61 +344,6 @@ TEST_CASE("solve: an estimate held on a limit does not claim the limit known to 
   }
 }
 
-TEST_CASE("solve: a guess naming what the model lacks is an error at its entry", "[interp]") {
-  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  std::mt19937 rng(1);
-  const MeasurementSet set = Measure3d(g, g.nominal, rng, 0.002);
-  SolveOptions options;
-  PoseSet guess;
-  guess.components.push_back({"drawer", Rigid3d(), SourceLocation("g.json", 2, 17)});
-  options.guess = &guess;
-  CHECK_THROWS_WITH(Solve(g, set, options), "g.json:2:17: error: unknown component 'drawer'");
-  guess.components.clear();
-  guess.points.push_back({"box", Eigen::Vector3d::Zero(), SourceLocation("g.json", 3, 5)});
-  CHECK_THROWS_WITH(Solve(g, set, options),
-                    "g.json:3:5: error: unknown point 'box': it is a rigid component");
-}
-
-TEST_CASE("solve: unknown and ambiguous labels are errors at the measurement", "[interp]") {
-  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  const MeasurementSet set = ReadMeasurementsFromString(
-      "points:\n  - {xyz: [0, 0, 1], sigma: 0.01, label: box.c000}\n"
-      "  - {xyz: [0, 0, 1], sigma: 0.01, label: box.c999}\n",
-      "meas.yaml");
-  try {
-    Solve(g, set);
-    FAIL("an unknown label was accepted");
-  } catch (const InputError& e) {
-    CHECK(std::string(e.what()) ==
-          "meas.yaml:3:5: points[1]: error: unknown label 'box.c999': no such model point");
-  }
-  // A typo gets the closest label; interpret refuses it as well, though labels do not steer it.
-  const MeasurementSet typo = ReadMeasurementsFromString(
-      "points:\n  - {xyz: [0, 0, 1], sigma: 0.01, label: bx.c010}\n", "meas.yaml");
-  const std::string expected =
-      "meas.yaml:2:5: points[0]: error: unknown label 'bx.c010': no such model point (did you "
-      "mean 'box.c010'?)";
-  CHECK_THROWS_WITH(Solve(g, typo), expected);
-  CHECK_THROWS_WITH(Interpret(g, typo), expected);
-}
-
-TEST_CASE("solve: measurements in millimetres are refused at the file, with the likely unit",
-          "[interp]") {
-  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
-  std::mt19937 rng(2);
-  MeasurementSet set = Measure3d(g, g.nominal, rng, 0.002);
-  set.source = "mm.json";
-  CHECK(Solve(g, set).accepted());
-  for (MeasuredPoint& m : set.points) {
-    m.xyz *= 1000;
-    m.cov3 *= 1e6;
-  }
-  CHECK_THROWS_WITH(Solve(g, set),
-                    Catch::Matches("mm\\.json: error: the labelled points are about 1000 times "
-                                   "as far apart as the model points they name \\(median over [0-9]+ "
-                                   "pairs\\): millimetres\\? measurement files take metres"));
-}
-
 }  // namespace
 }  // namespace cfuse
 
@@ -527,32 +470,6 @@ TEST_CASE("solve: a measurement the model cannot fit makes the solution not acce
   CHECK_FALSE(s.fits);
   CHECK_FALSE(s.accepted());
   CHECK(s.analysis.fit.p_value < 1e-3);
-}
-
-TEST_CASE("solve: the joints' Jacobian matches finite differences", "[interp]") {
-  for (const char* file : {"examples/hinged-box.yaml", "examples/planar-arm.yaml"}) {
-    CAPTURE(file);
-    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
-    Values x = g.nominal;
-    std::mt19937 rng(5);
-    std::normal_distribution<double> n(0, 0.3);
-    Eigen::VectorXd move(g.blocks.back().tangent_offset + TangentDim(g.blocks.back().kind));
-    for (int i = 0; i < move.size(); ++i) move[i] = n(rng);
-    Retract(g.blocks, move, &x);  // away from the nominal geometry's special values
-    const Eigen::MatrixXd analytic = JointJacobian(g, x);
-    REQUIRE(analytic.rows() == JointValues(g, x).size());
-    REQUIRE(analytic.cols() == move.size());
-    const double h = 1e-6;
-    for (int i = 0; i < move.size(); ++i) {
-      Eigen::VectorXd step = Eigen::VectorXd::Zero(move.size());
-      step[i] = h;
-      Values plus = x, minus = x;
-      Retract(g.blocks, step, &plus);
-      Retract(g.blocks, -step, &minus);
-      const Eigen::VectorXd numeric = (JointValues(g, plus) - JointValues(g, minus)) / (2 * h);
-      CHECK((numeric - analytic.col(i)).norm() <= 1e-6 * (1 + numeric.norm()));
-    }
-  }
 }
 
 TEST_CASE("solve: a folding ruler from one image: every answer accepted is right", "[interp]") {
