@@ -1,9 +1,7 @@
 // The renderer's realistic style (cfuse/vision/render.h, cfuse/vision/texture.h): textures in
 // perspective, the truth against the image, motion blur, the sensor's noise model, determinism, the
-// procedural fallback, reading photographs, the hand and the realistic standard sequences.
+// procedural fallback, the hand and the realistic standard sequences.
 #include <catch2/catch.hpp>
-#include <filesystem>
-#include <fstream>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -18,8 +16,6 @@
 
 namespace cfuse {
 namespace {
-
-namespace fs = std::filesystem;
 
 // Whether two renderings have the same pixels (said without printing 307200 of them).
 bool SamePixels(const Rendering& a, const Rendering& b) { return a.pixels == b.pixels; }
@@ -449,56 +445,6 @@ TEST_CASE("realistic render: without photographs, procedural cards", "[vision][r
   hollow.pixels.pop_back();
   o.realistic.photographs = Share({hollow});
   CHECK_THROWS_AS(Render(g, at, StandardCamera(), o), InputError);
-}
-
-TEST_CASE("photographs: read from files and directories, refused at the file", "[vision][render]") {
-  const fs::path dir = fs::temp_directory_path() / "cfuse_render_photographs_test";
-  fs::remove_all(dir);
-  fs::create_directories(dir / "none");
-  fs::create_directories(dir / "bad");
-  cv::Mat colour(40, 60, CV_8UC3, cv::Scalar(10, 200, 30));
-  cv::imwrite((dir / "b.png").string(), colour);
-  cv::imwrite((dir / "a.pgm").string(), cv::Mat(50, 70, CV_8U, cv::Scalar(77)));
-  cv::imwrite((dir / "tiny.png").string(), cv::Mat(8, 8, CV_8U, cv::Scalar(1)));
-  std::ofstream(dir / "notes.txt") << "not an image";
-  std::ofstream(dir / "none" / "notes.txt") << "no images here";
-  std::ofstream(dir / "bad" / "broken.png") << "not a png";
-
-  const std::vector<GrayImage> one = LoadPhotographs({(dir / "b.png").string()});
-  REQUIRE(one.size() == 1);
-  CHECK(one[0].width == 60);
-  CHECK(one[0].height == 40);
-  CHECK(one[0].pixels.size() == 2400u);
-  fs::remove(dir / "tiny.png");
-  const std::vector<GrayImage> all = LoadPhotographs({dir.string()});
-  REQUIRE(all.size() == 2);  // a.pgm, b.png by name; notes.txt skipped, folders not entered
-  CHECK(all[0].pixels[0] == 77);
-
-  auto refused = [](const std::string& path, const std::string& message) {
-    INFO(path);
-    try {
-      LoadPhotographs({path});
-      FAIL("accepted");
-    } catch (const InputError& e) {
-      CHECK(e.where().file == path);
-      CHECK_THAT(e.message(), Catch::Matchers::Contains(message));
-    }
-  };
-  refused((dir / "missing.png").string(), "no such file");
-  refused((dir / "bad" / "broken.png").string(), "cannot read the image");
-  refused((dir / "none").string(), "holds no images");
-  cv::imwrite((dir / "tiny.png").string(), cv::Mat(8, 8, CV_8U, cv::Scalar(1)));
-  refused((dir / "tiny.png").string(), "at least 32 x 32");
-  fs::remove_all(dir);
-
-  CHECK(VispPhotographPaths((dir / "nowhere").string()).empty());
-  const std::vector<std::string> visp = VispPhotographPaths();
-  if (visp.empty()) {
-    WARN("visp-images-data is not installed: its photographs are not checked");
-  } else {
-    CHECK(visp.size() == 8);
-    CHECK(LoadPhotographs({visp.front()}).front().width > 500);
-  }
 }
 
 TEST_CASE("realistic render: a hand hides what it passes over", "[vision][render]") {

@@ -1,6 +1,5 @@
 // The image front end: segment detectors on known edges and on rendered scenes with their
-// ground truth, Lowe's subdivision, the segment index against brute force, the region of
-// interest, and bad input.
+// ground truth, Lowe's subdivision, the region of interest, and bad input.
 #include "cfuse/vision/segments.h"
 
 #include <catch2/catch.hpp>
@@ -12,7 +11,6 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/error.h"
 #include "cfuse/vision/render.h"
-#include "cfuse/vision/segment_index.h"
 #include "cfuse/vision/segment_score.h"
 #include "test_util.h"
 
@@ -225,42 +223,6 @@ TEST_CASE("segments: bad input is refused, not crashed on", "[vision]") {
   cv::Mat noise(200, 200, CV_8U);
   cv::randn(noise, 128, 2);
   CHECK(DetectSegments(View(noise), o).size() <= 2);
-}
-
-TEST_CASE("segment index: queries return exactly what brute force does", "[vision]") {
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<float> x(0, 640), y(0, 480), len(5, 60), angle(0, 3.3f);
-  std::vector<ImageSegment> segments;
-  for (int i = 0; i < 2000; ++i) {
-    ImageSegment s;
-    s.a = Eigen::Vector2f(x(rng), y(rng));
-    const float t = angle(rng), l = len(rng);
-    s.b = s.a + l * Eigen::Vector2f(std::cos(t), std::sin(t));
-    segments.push_back(s);
-  }
-  const SegmentIndex index(segments, 640, 480);
-  std::vector<int> got;
-  for (int q = 0; q < 500; ++q) {
-    const Eigen::Vector2f centre(x(rng), y(rng));
-    const float radius = std::uniform_real_distribution<float>(2, 60)(rng);
-    // Orientations near 0 and π too: the window wraps.
-    const float orientation = q % 5 == 0 ? 0.01f : q % 5 == 1 ? 3.13f : angle(rng);
-    const float window = std::uniform_real_distribution<float>(0.02f, 0.5f)(rng);
-    index.Query(centre, radius, orientation, window, &got);
-    std::vector<int> expected;
-    for (int i = 0; i < static_cast<int>(segments.size()); ++i) {
-      const Eigen::Vector2f mid = 0.5f * (segments[i].a + segments[i].b) - centre;
-      float d = std::fmod(std::abs(segments[i].Orientation() - orientation),
-                          static_cast<float>(M_PI));
-      d = std::min(d, static_cast<float>(M_PI) - d);
-      if (std::abs(mid.x()) <= radius && std::abs(mid.y()) <= radius && d <= window) {
-        expected.push_back(i);
-      }
-    }
-    REQUIRE(got == expected);
-    // A small window touches few of the 40 x 30 x 18 cells: at most 3 per axis.
-    if (radius < 10 && window < 0.1f) CHECK(index.last_cells_visited() <= 3 * 3 * 3);
-  }
 }
 
 }  // namespace
