@@ -168,23 +168,45 @@ TEST_CASE("solve starts: each labelled component starts at its own closed-form p
   const Values truth = Moved(ForwardKinematics(g, {{"hinge", 80 * M_PI / 180}}), kMotion);
   const MeasurementSet set = Exact(g, truth, 0.001);
   const std::vector<ResolvedLabel> labels = ResolveLabels(g, set);
-  const Values each = ClosedFormStart(g, set, labels, {});
+  const Values each = ClosedFormStart(g, set, labels);
   for (size_t i = 0; i < truth.poses.size(); ++i) {
     CHECK((each.poses[i].translation - truth.poses[i].translation).norm() < 1e-9);
     CHECK(each.poses[i].rotation.angularDistance(truth.poses[i].rotation) < 1e-9);
   }
   // As one body: the nominal geometry (the lid at 35 degrees) moved onto all the points.
-  const Values whole = ClosedFormStart(g, set, labels, {}, false);
+  const Values whole = ClosedFormStart(g, set, labels, false);
   const Rigid3d nominal_lid = g.nominal.poses[0].Inverse() * g.nominal.poses[1];
   const Rigid3d start_lid = whole.poses[0].Inverse() * whole.poses[1];
   CHECK(start_lid.rotation.angularDistance(nominal_lid.rotation) < 1e-9);
   CHECK(whole.poses[0].rotation.angularDistance(truth.poses[0].rotation) > 0.01);
   // Two points fix no rotation: the nominal geometry moved by the first one's offset.
   const std::vector<ResolvedLabel> two(labels.begin(), labels.begin() + 2);
-  const Values shifted = ClosedFormStart(g, set, two, {});
+  const Values shifted = ClosedFormStart(g, set, two);
   const Eigen::Vector3d offset = set.points[0].xyz - ModelPoint(g, g.nominal, 0, 0);
   CHECK((shifted.poses[0].translation - (g.nominal.poses[0].translation + offset)).norm() < 1e-12);
   CHECK(shifted.poses[0].rotation.angularDistance(g.nominal.poses[0].rotation) < 1e-12);
+}
+
+TEST_CASE("solve starts: from image points alone, each component at its PnP pose", "[interp]") {
+  // The hinged box 1.4 m in front of a pinhole camera, its corners projected exactly: each
+  // component's start is its true pose (PnP from geometry/, no hook to wire in).
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  const Rigid3d in_front(
+      Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, 2, 0.5).normalized())),
+      Eigen::Vector3d(0.05, -0.02, 1.4));
+  const Values truth = Moved(ForwardKinematics(g, {{"hinge", 80 * M_PI / 180}}), in_front);
+  MeasurementSet set = Exact(g, truth, 0.001);
+  set.camera = testing::Pinhole();
+  for (MeasuredPoint& m : set.points) {
+    m.is_3d = false;
+    m.uv = set.camera->Project<double>(m.xyz);
+    m.cov2 = Eigen::Matrix2d::Identity();
+  }
+  const Values start = ClosedFormStart(g, set, ResolveLabels(g, set));
+  for (size_t i = 0; i < truth.poses.size(); ++i) {
+    CHECK((start.poses[i].translation - truth.poses[i].translation).norm() < 1e-6);
+    CHECK(start.poses[i].rotation.angularDistance(truth.poses[i].rotation) < 1e-6);
+  }
 }
 
 // A 100 mm square seen by an orthographic camera at 40 degrees: it and its mirror image about
