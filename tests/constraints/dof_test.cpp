@@ -6,7 +6,6 @@
 #include "cfuse/constraints/kinds/equality.h"
 #include "cfuse/constraints/kinds/registry.h"
 #include "cfuse/constraints/model_builder.h"
-#include "cfuse/kernel/check.h"
 #include "constraints/jacobian_checker.h"
 
 namespace cfuse {
@@ -35,26 +34,6 @@ struct Model {
   }
   DofReport Dof() const { return AnalyzeDof(b.graph(), b.graph().nominal); }
 };
-
-TEST_CASE("graph: the algorithms' entry contract catches a graph assembled wrongly",
-          "[constraints]") {
-  Model m;
-  m.Distance(m.Point("a", {0, 0, 0}), m.Point("b", {1, 0, 0}));
-  ConstraintGraph g = m.b.graph();
-  CHECK_NOTHROW(CheckGraph(g));
-  ConstraintGraph no_residual = g;
-  no_residual.constraints[0].residual = nullptr;
-  CHECK_THROWS_WITH(CheckGraph(no_residual), Catch::Contains("has no residual"));
-  ConstraintGraph wrong_blocks = g;
-  wrong_blocks.constraints[0].blocks.pop_back();
-  CHECK_THROWS_AS(CheckGraph(wrong_blocks), InternalError);
-  ConstraintGraph out_of_range = g;
-  out_of_range.components[1].block = 7;
-  CHECK_THROWS_AS(CheckGraph(out_of_range), InternalError);
-  ConstraintGraph short_nominal = g;
-  short_nominal.nominal.points.pop_back();
-  CHECK_THROWS_AS(CheckGraph(short_nominal), InternalError);
-}
 
 TEST_CASE("dof: free points", "[constraints]") {
   Model m;
