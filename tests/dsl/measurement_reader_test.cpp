@@ -2,16 +2,10 @@
 // the line and column, the entry and the problem.
 #include "cfuse/dsl/measurement_reader.h"
 
-#include <fmt/format.h>
-
 #include <catch2/catch.hpp>
-#include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
-#include "measurement_json.h"
 #include "test_util.h"
 
 namespace cfuse {
@@ -108,76 +102,6 @@ TEST_CASE("measurements: every malformed file is refused where and how it should
   testing::ExpectRefused(
       std::begin(cases), std::end(cases),
       [](const char* text, const char* file) { return ReadMeasurementsFromString(text, file); });
-}
-
-// The JSON fast path (dsl/src/measurement_json.h) must agree with the YAML reader on everything
-// it accepts. A trailing YAML comment hides a file from the fast path (it is not JSON) without
-// moving anything, so reading `text + "\n#"` is the YAML reader's answer.
-MeasurementSet ReadByYaml(const std::string& text, const std::string& file) {
-  return ReadMeasurementsFromString(text + "\n#", file);
-}
-
-std::string Slurp(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-TEST_CASE("measurements: the JSON fast path reads as the YAML reader does", "[dsl]") {
-  std::vector<std::string> texts;
-  for (const auto& entry :
-       std::filesystem::directory_iterator(testing::SourcePath("fuzz/seeds/measurements"))) {
-    if (entry.path().extension() == ".json") texts.push_back(Slurp(entry.path().string()));
-  }
-  texts.push_back(Slurp(testing::SourcePath("tests/data/lamp-measurements.json")));
-  REQUIRE(texts.size() >= 5);
-  // Pretty-printed, with tabs, in any key order, camera after the points, nulls.
-  std::string many = "{\n\t\"points\": [\n";
-  for (int i = 0; i < 2000; ++i) {
-    many += fmt::format("{}  {{\"label\": {}, \"sigma\": {}, \"xyz\": [{}, -{}e-3, {}]}}",
-                        i ? ",\n" : "", i % 3 ? fmt::format("\"p{}\"", i) : "null",
-                        0.001 * (1 + i % 7), i, i, 1.5 + 1e-4 * i);
-  }
-  many +=
-      ",\n{\"uv\": [1, 2], \"cov\": [[2, 0.5], [0.5, 1]]}],\n \"camera\": {\"fx\": 800, "
-      "\"fy\": 800, \"cx\": 320, \"cy\": 240, \"width\": 640, \"height\": 480}}\n";
-  texts.push_back(many);
-  for (const std::string& text : texts) {
-    const MeasurementSet fast = ReadMeasurementsFromString(text, "m.json");
-    const MeasurementSet yaml = ReadByYaml(text, "m.json");
-    CHECK(SameMeasurements(fast, yaml));
-  }
-  // The fast path takes these itself (the comparison above would pass if it gave up on all).
-  const auto read_camera = [](std::string_view) { return testing::Pinhole(); };
-  for (const std::string& text : texts)
-    CHECK(ReadPlainJsonMeasurements(text, "m.json", read_camera));
-}
-
-// Found by the `measurements` fuzz target: JSON that YAML 1.2 cannot parse (a line break
-// between a key and its colon makes an implicit key span lines) is read by the fast path.
-TEST_CASE("measurements: JSON beyond YAML's syntax is read all the same", "[dsl]") {
-  const std::string text =
-      "{\"points\"\n\n: [{\"xyz\": [1, 2, 3], \"sigma\": 0.5, \"label\": \"a\"}]}";
-  const MeasurementSet set = ReadMeasurementsFromString(text, "m.json");
-  REQUIRE(set.points.size() == 1);
-  CHECK(set.points[0].label == "a");
-  CHECK(set.points[0].where.ToString() == "m.json:3:4: points[0]");
-  CHECK_THROWS_WITH(ReadByYaml(text, "m.json"), Catch::Contains("YAML syntax error"));
-}
-
-// Found by the `measurements` fuzz target: a covariance asymmetric within the tolerance (relative
-// to its largest entry) was symmetrised in place, reading entries already overwritten.
-TEST_CASE("measurements: a nearly symmetric cov is made exactly symmetric, as YAML does", "[dsl]") {
-  const std::string text =
-      R"({"points": [{"xyz": [1, 2, 3], "cov": [[4e-6, 0, 0], [0, 4e-6, 0], [1, 0, 4e206]]}]})";
-  const MeasurementSet fast = ReadMeasurementsFromString(text, "m.json");
-  const MeasurementSet yaml = ReadByYaml(text, "m.json");
-  REQUIRE(fast.points.size() == 1);
-  const Eigen::Matrix3d& C = fast.points[0].cov3;
-  CHECK(C == C.transpose());
-  CHECK(C(0, 2) == 0.5);
-  CHECK(SameMeasurements(fast, yaml));
 }
 
 TEST_CASE("measurements: malformed JSON gets the YAML reader's message", "[dsl]") {
