@@ -3,8 +3,6 @@
 // worked by hand, the angle accurate near 0 and π where an arccosine is not.
 #include "cfuse/constraints/functions.h"
 
-// functions.h uses cross() without <Eigen/Geometry>: every other includer has it already.
-#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <string>

@@ -13,6 +13,7 @@
 // builder refuses constraints whose Jacobian is not finite at the nominal geometry.
 #pragma once
 
+#include <Eigen/Geometry>
 #include <cmath>
 #include <optional>
 #include <span>
