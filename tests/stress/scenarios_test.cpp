@@ -21,8 +21,6 @@
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/measurements/image_point.h"
-#include "cfuse/kernel/measurements/point3.h"
-#include "cfuse/kernel/measurements/stacked.h"
 #include "cli/results.h"
 #include "test_util.h"
 
@@ -477,33 +475,6 @@ TEST_CASE("stress: an image update crossing the camera plane leaves a finite sta
     }
   }
   CHECK(invalid > 0);  // some did cross
-}
-
-TEST_CASE("stress: a stacked update with no value says at which row", "[stress]") {
-  // A point measured in 3D and in an image, stacked; behind the camera the image rows have no
-  // value, and the summary points at the first of them, so that the solve can name the
-  // measurement (above: "an image point at or behind the camera is left out and named").
-  const Camera camera = testing::Pinhole();
-  const std::vector<Block> blocks = {{BlockKind::kPoint, 0, 0, "p"}};
-  for (const double z : {-0.5, 0.5}) {
-    INFO("z " << z);
-    Values start;
-    start.points = {Eigen::Vector3d(0.01, 0.0, z)};
-    GaussianState state = MakePrior(blocks, start, PriorScale{});
-    const std::vector<std::shared_ptr<const ResidualFunction>> parts = {
-        std::make_shared<Point3Residual>(start.points[0]),
-        std::make_shared<ImagePointResidual>(camera, Eigen::Vector2d(336, 240))};
-    const Factor f{std::make_shared<StackedResidual>(parts), {0},
-                   Eigen::MatrixXd::Identity(5, 5), "stacked"};
-    const FusionSummary s = Fuse(f, &state);
-    if (z < 0) {
-      CHECK(s.status == FusionSummary::Status::kInvalid);
-      CHECK(s.invalid_row == 3);
-    } else {
-      CHECK(s.changed_state());
-      CHECK(s.invalid_row == -1);
-    }
-  }
 }
 
 // (f) Gross outliers: one measurement 10^6 standard deviations from where the rest put its

@@ -1,0 +1,101 @@
+// The estimator on the kernel alone (cfuse/kernel/estimator.h): a measurement update is the
+// Kalman update in closed form, a constraint is a measurement of zero variance (met exactly,
+// then redundant, or contradicted), and an update with no value says at which row. Whole
+// models (with the DSL) are in tests/fusion/estimator_test.cpp.
+#include "cfuse/kernel/estimator.h"
+
+#include <catch2/catch.hpp>
+#include <memory>
+
+#include "cfuse/kernel/measurements/image_point.h"
+#include "cfuse/kernel/measurements/point3.h"
+#include "cfuse/kernel/measurements/stacked.h"
+#include "test_util.h"
+
+namespace cfuse {
+namespace {
+
+const std::vector<Block> kOnePoint = {{BlockKind::kPoint, 0, 0, "p"}};
+
+GaussianState PointPrior(const Eigen::Vector3d& mean, double sigma) {
+  Values v;
+  v.points = {mean};
+  PriorScale scale;
+  scale.position = sigma;
+  return MakePrior(kOnePoint, v, scale);
+}
+
+Factor PointFactor(const Eigen::Vector3d& z, const Eigen::Matrix3d& noise, const char* name) {
+  return {std::make_shared<Point3Residual>(z), {0}, noise, name};
+}
+
+TEST_CASE("estimator: a point measurement is the Kalman update in closed form", "[kernel]") {
+  const Eigen::Vector3d x0(0.1, -0.2, 0.3), z(0.15, -0.1, 0.28);
+  GaussianState state = PointPrior(x0, 0.5);
+  const Eigen::Matrix3d P0 = state.covariance;
+  Eigen::Matrix3d R;
+  R << 0.04, 0.01, 0, 0.01, 0.09, -0.02, 0, -0.02, 0.01;
+  const FusionSummary s = Fuse(PointFactor(z, R, "z"), &state);
+  CHECK(s.status == FusionSummary::Status::kFused);
+  CHECK(s.rows_fused == 3);
+  const Eigen::Matrix3d K = P0 * (P0 + R).inverse();
+  CHECK((state.mean.points[0] - (x0 + K * (z - x0))).norm() < 1e-12);
+  CHECK((state.covariance - (P0 - K * P0)).norm() < 1e-12);
+  // The normalised innovation, (z - x0)ᵀ (P0 + R)⁻¹ (z - x0).
+  CHECK(s.innovation_nis == Approx((z - x0).dot((P0 + R).inverse() * (z - x0))).epsilon(1e-10));
+}
+
+TEST_CASE("estimator: a constraint is met exactly, then redundant, then contradicted",
+          "[kernel]") {
+  GaussianState state = PointPrior(Eigen::Vector3d(1, 2, 3), 0.5);
+  const Eigen::Vector3d held(1.1, 1.9, 3.05);
+  const Factor constraint{std::make_shared<Point3Residual>(held), {0}, {}, "held"};
+  REQUIRE(constraint.is_constraint());
+  CHECK(Fuse(constraint, &state).status == FusionSummary::Status::kFused);
+  CHECK((state.mean.points[0] - held).norm() < 1e-12);
+  CHECK(state.covariance.norm() < 1e-12);  // known to zero variance
+  // Met again: nothing to fuse.
+  const GaussianState before = state;
+  CHECK(Fuse(constraint, &state).status == FusionSummary::Status::kRedundant);
+  CHECK(state.mean.points[0] == before.mean.points[0]);
+  // Another place for a point known exactly: a contradiction, the state unchanged.
+  const Factor other{std::make_shared<Point3Residual>(Eigen::Vector3d(1.2, 1.9, 3.05)),
+                     {0},
+                     {},
+                     "elsewhere"};
+  const FusionSummary s = Fuse(other, &state);
+  CHECK(s.status == FusionSummary::Status::kContradiction);
+  CHECK(s.contradiction > 0);
+  CHECK(state.mean.points[0] == before.mean.points[0]);
+  CHECK(state.covariance == before.covariance);
+}
+
+TEST_CASE("estimator: an update with no value names its first row, the state unchanged",
+          "[kernel]") {
+  // A point measured in 3D and in an image, stacked: behind the camera the image's rows (3 and
+  // 4) have no value.
+  const Camera camera = testing::Pinhole();
+  for (const double z : {-0.5, 0.5}) {
+    INFO("z " << z);
+    GaussianState state = PointPrior(Eigen::Vector3d(0.01, 0, z), 1.0);
+    const GaussianState before = state;
+    const std::vector<std::shared_ptr<const ResidualFunction>> parts = {
+        std::make_shared<Point3Residual>(Eigen::Vector3d(0.01, 0, z)),
+        std::make_shared<ImagePointResidual>(camera, Eigen::Vector2d(336, 240))};
+    const Factor f{std::make_shared<StackedResidual>(parts), {0},
+                   Eigen::MatrixXd::Identity(5, 5), "stacked"};
+    const FusionSummary s = Fuse(f, &state);
+    if (z < 0) {
+      CHECK(s.status == FusionSummary::Status::kInvalid);
+      CHECK(s.invalid_row == 3);
+      CHECK(state.mean.points[0] == before.mean.points[0]);
+      CHECK(state.covariance == before.covariance);
+    } else {
+      CHECK(s.changed_state());
+      CHECK(s.invalid_row == -1);
+    }
+  }
+}
+
+}  // namespace
+}  // namespace cfuse
