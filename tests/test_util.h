@@ -29,6 +29,18 @@ inline Camera Pinhole() {
   return camera;
 }
 
+// The InputError that `f` throws; a test failure when it throws none.
+template <typename F>
+InputError ErrorOf(F&& f) {
+  try {
+    f();
+  } catch (const InputError& e) {
+    return e;
+  }
+  FAIL("accepted");
+  return InputError(SourceLocation(), "");
+}
+
 // A malformed input and where and how it must be refused.
 struct BadCase {
   const char* text;

@@ -7,7 +7,6 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 
 #include "test_util.h"
 
@@ -18,15 +17,7 @@ namespace fs = std::filesystem;
 
 const FileKind kKind{"model", "a model needs 'points' or 'components'", 1024};
 
-InputError ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e;
-  }
-  FAIL("accepted");
-  return InputError(SourceLocation(), "");
-}
+using testing::ErrorOf;
 
 TEST_CASE("yaml document: the raw checks of a file", "[dsl]") {
   const fs::path dir = fs::temp_directory_path() / "cfuse_yaml_document_test";

@@ -6,23 +6,16 @@
 #include <catch2/catch.hpp>
 #include <filesystem>
 #include <fstream>
-#include <functional>
 #include <string>
+
+#include "test_util.h"
 
 namespace cfuse {
 namespace {
 
 namespace fs = std::filesystem;
 
-InputError ErrorOf(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const InputError& e) {
-    return e;
-  }
-  FAIL("accepted");
-  return InputError(SourceLocation(), "");
-}
+using testing::ErrorOf;
 
 TEST_CASE("read file: the bytes, or why not, at the file or where it was named", "[importers]") {
   const fs::path dir = fs::temp_directory_path() / "cfuse_read_file_test";

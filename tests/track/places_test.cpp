@@ -11,39 +11,18 @@
 #include "cfuse/vision/sequence.h"
 #include "cfuse/vision/texture.h"
 #include "test_util.h"
+#include "track/track_run.h"
 
 namespace cfuse {
 namespace {
 
-GrayView View(const Rendering& r) { return {r.pixels.data(), r.width, r.height, r.width}; }
+using testing::Errors;
+using testing::View;
 
-struct Errors {
-  int frames = 0, verified = 0;
-  std::vector<double> translation_mm, joint_deg;  // of the verified frames
-  std::vector<TrackedFrame> track;
-};
-
-// The root's (component 0's) error, and the first joint's, on every verified frame.
+// The tracker started at the first frame's truth.
 Errors Run(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frames,
            TrackerOptions options = {}) {
-  Tracker tracker(graph, StandardCamera(), frames[0].truth, options);
-  Errors out;
-  for (const SequenceFrame& frame : frames) {
-    TrackedFrame f = tracker.Track(View(frame.rendering));
-    ++out.frames;
-    if (f.verified) {
-      ++out.verified;
-      out.translation_mm.push_back(
-          1000 * (f.estimate.mean.poses[0].translation - frame.truth.poses[0].translation).norm());
-      if (!graph.joints.empty()) {
-        out.joint_deg.push_back(
-            std::abs(JointValues(graph, f.estimate.mean)[0] - JointValues(graph, frame.truth)[0]) *
-            180 / M_PI);
-      }
-    }
-    out.track.push_back(std::move(f));
-  }
-  return out;
+  return testing::Run(graph, frames, frames[0].truth, options);
 }
 
 ConstraintGraph HingedBox() { return LoadModel(testing::SourcePath("examples/hinged-box.yaml")); }

@@ -16,50 +16,14 @@
 #include "cfuse/vision/sequence.h"
 #include "cfuse/vision/texture.h"
 #include "test_util.h"
+#include "track/track_run.h"
 
 namespace cfuse {
 namespace {
 
-GrayView View(const Rendering& r) {
-  return {r.pixels.data(), r.width, r.height, r.width};
-}
-
-struct Errors {
-  int frames = 0, verified = 0;
-  std::vector<double> translation_mm, rotation_deg, joint_deg;  // of the verified frames
-  std::vector<TrackedFrame> track;
-
-  static double Quantile(std::vector<double> v, double q) {
-    if (v.empty()) return 0;
-    std::sort(v.begin(), v.end());
-    return v[static_cast<size_t>(q * static_cast<double>(v.size() - 1))];
-  }
-};
-
-// The root's (component 0's) error, and the first joint's, on every verified frame.
-Errors Run(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frames,
-           const Values& initial, TrackerOptions options = {}) {
-  Tracker tracker(graph, StandardCamera(), initial, options);
-  Errors out;
-  for (const SequenceFrame& frame : frames) {
-    TrackedFrame f = tracker.Track(View(frame.rendering));
-    ++out.frames;
-    if (f.verified) {
-      ++out.verified;
-      const Rigid3d& estimate = f.estimate.mean.poses[0];
-      const Rigid3d& truth = frame.truth.poses[0];
-      out.translation_mm.push_back(1000 * (estimate.translation - truth.translation).norm());
-      out.rotation_deg.push_back(estimate.rotation.angularDistance(truth.rotation) * 180 / M_PI);
-      if (!graph.joints.empty()) {
-        out.joint_deg.push_back(
-            std::abs(JointValues(graph, f.estimate.mean)[0] - JointValues(graph, frame.truth)[0]) *
-            180 / M_PI);
-      }
-    }
-    out.track.push_back(std::move(f));
-  }
-  return out;
-}
+using testing::Errors;
+using testing::Run;
+using testing::View;
 
 ConstraintGraph HingedBox() {
   return LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
