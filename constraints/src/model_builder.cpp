@@ -14,6 +14,7 @@
 #include "cfuse/constraints/kinds/registry.h"
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/evaluate.h"
+#include "kinds/kind_support.h"
 #include "row_selection.h"
 
 namespace cfuse {
@@ -404,7 +405,7 @@ int ModelBuilder::AddJoint(const JointSpec& spec) {
     const auto [lo, hi] = *spec.limits;
     const double half = 0.5 * (hi - lo);
     const double u = (spec.position - 0.5 * (lo + hi)) / half;
-    SetSlackNominal(slack, NominalSlack(1 - u * u));
+    SetSlackNominal(slack, internal::NominalSlack(1 - u * u));
     ConstraintParts limit{std::make_shared<JointLimitResidual>(geometry, prismatic, lo, hi),
                           {parent.block, child.block, slack},
                           slack};

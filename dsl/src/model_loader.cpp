@@ -9,12 +9,14 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
+#include <span>
 #include <sstream>
 
 #include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/equality.h"
 #include "cfuse/constraints/model_builder.h"
 #include "cfuse/kernel/did_you_mean.h"
+#include "cfuse/kernel/evaluate.h"
 #include "lower.h"
 #include "units.h"
 #include "yaml_document.h"
@@ -583,10 +585,12 @@ void Loader::ReadFixed(const Document& doc, const YAML::Node& node) {
       if (Present(at)) {
         target = Vector(doc, at, Quantity::Length(), "at");
       } else {
+        // The point's nominal position: its expression bound to slots, at the nominal values.
         std::vector<ExprPtr> bound = {p};
         const std::vector<int> blocks = BindSlots(&bound);
-        KindContext ctx = builder_->Context();
-        target = NominalValues(BoundArgs{bound, blocks, {}}, ctx)[0];
+        const std::vector<BlockState<double>> states =
+            GatherStates(builder_->graph().blocks, blocks, builder_->graph().nominal);
+        target = Evaluate<double>(*bound[0], std::span<const BlockState<double>>(states));
       }
       builder_->AddConstraint(
           builder_->UniqueConstraintName("fixed_" + std::string(ast->name) +

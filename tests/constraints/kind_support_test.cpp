@@ -1,17 +1,21 @@
 // What the constraint kinds share (constraints/src/kinds/kind_support.cpp): arguments bound to
 // slots (a slack last), their nominal values, the refusals a kind throws as KindError, the
 // description of a call, the largest triangle, farthest pair and extent against brute force, and
-// the range's slack form.
-#include "cfuse/constraints/kinds/kind_support.h"
+// the range's slack form (cfuse/constraints/kinds/range_slack.h). The helpers are internal:
+// tested through constraints/src/kinds/kind_support.h.
+#include "kinds/kind_support.h"
 
 #include <catch2/catch.hpp>
 #include <random>
 
+#include "cfuse/constraints/kinds/range_slack.h"
 #include "cfuse/constraints/model_builder.h"
 #include "cfuse/kernel/check.h"
 
 namespace cfuse {
 namespace {
+
+using namespace internal;
 
 struct Model {
   ModelBuilder b{"m", "test"};

@@ -1,4 +1,5 @@
-#include "cfuse/constraints/kinds/kind_support.h"
+// What the constraint kinds' factories share (kinds/kind_support.h).
+#include "kinds/kind_support.h"
 
 #include <fmt/format.h>
 
@@ -7,7 +8,7 @@
 #include "cfuse/constraints/evaluate.h"
 #include "cfuse/kernel/check.h"
 
-namespace cfuse {
+namespace cfuse::internal {
 
 BoundArgs BindArgs(std::vector<ExprPtr> exprs, const KindContext& ctx, bool with_slack) {
   BoundArgs out;
@@ -104,4 +105,4 @@ double Extent(const std::vector<Eigen::Vector3d>& p) {
 
 double NominalSlack(double margin) { return std::sqrt(std::max(margin, 0.0)); }
 
-}  // namespace cfuse
+}  // namespace cfuse::internal

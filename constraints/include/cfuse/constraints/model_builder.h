@@ -13,7 +13,7 @@
 #include <unordered_set>
 
 #include "cfuse/constraints/graph.h"
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 

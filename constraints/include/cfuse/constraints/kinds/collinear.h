@@ -6,9 +6,12 @@
 // the nominal geometry; the basis' own derivative multiplies a zero at a solution.
 #pragma once
 
-#include <fmt/format.h>
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 
@@ -34,23 +37,9 @@ class CollinearResidual : public AutoDiffResidual<CollinearResidual> {
     }
   }
 
-  std::string Describe(std::span<const std::string> names) const override {
-    return DescribeCall("collinear", args_.exprs, names);
-  }
+  std::string Describe(std::span<const std::string> names) const override;
 
-  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
-    RequireVectors(exprs, "collinear", true);
-    BoundArgs args = BindArgs(std::move(exprs), ctx, false);
-    const std::vector<Eigen::Vector3d> p = NominalValues(args, ctx);
-    const auto [base, distance] = FarthestPair(p);
-    if (distance <= 1e-12) {
-      throw KindError(
-          "collinear: the points coincide at the nominal geometry, so they do not "
-          "define a line");
-    }
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<CollinearResidual>(std::move(args), base), std::move(blocks)};
-  }
+  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx);
 
  private:
   BoundArgs args_;

@@ -6,9 +6,12 @@
 // model allows; a model whose points are all collinear at the nominal geometry is refused.
 #pragma once
 
-#include <fmt/format.h>
+#include <array>
+#include <span>
+#include <string>
+#include <vector>
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 
@@ -32,24 +35,9 @@ class CoplanarResidual : public AutoDiffResidual<CoplanarResidual> {
     }
   }
 
-  std::string Describe(std::span<const std::string> names) const override {
-    return DescribeCall("coplanar", args_.exprs, names);
-  }
+  std::string Describe(std::span<const std::string> names) const override;
 
-  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
-    RequireVectors(exprs, "coplanar", true);
-    BoundArgs args = BindArgs(std::move(exprs), ctx, false);
-    const std::vector<Eigen::Vector3d> p = NominalValues(args, ctx);
-    const auto [base, area] = LargestTriangle(p);
-    const double extent = Extent(p);
-    if (area <= 1e-9 * extent * extent || extent == 0) {
-      throw KindError(
-          "coplanar: the points are collinear (or coincide) at the nominal geometry, so they "
-          "do not define a plane");
-    }
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<CoplanarResidual>(std::move(args), base), std::move(blocks)};
-  }
+  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx);
 
  private:
   BoundArgs args_;

@@ -2,7 +2,7 @@
 // Fixing a point in the world is `p == [x, y, z] m`.
 #pragma once
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 
@@ -24,14 +24,7 @@ class EqualityResidual : public AutoDiffResidual<EqualityResidual> {
   }
 
   // lhs and rhs of the same type (checked by the caller).
-  static ConstraintParts Create(ExprPtr lhs, ExprPtr rhs, const KindContext& ctx) {
-    BoundArgs args = BindArgs({std::move(lhs), std::move(rhs)}, ctx, false);
-    // Coincident points at the nominal geometry are refused with the others not differentiable
-    // there (ModelBuilder::AddConstraint).
-    if (NominalValues(args, ctx)[0].x() != 0) RefuseZeroLength(*args.exprs[0], *args.exprs[1]);
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<EqualityResidual>(std::move(args)), std::move(blocks)};
-  }
+  static ConstraintParts Create(ExprPtr lhs, ExprPtr rhs, const KindContext& ctx);
 
  private:
   BoundArgs args_;

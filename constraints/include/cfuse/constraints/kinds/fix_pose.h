@@ -5,7 +5,7 @@
 
 #include <fmt/format.h>
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/kernel/residual.h"
 #include "cfuse/kernel/rigid3.h"
 
 namespace cfuse {

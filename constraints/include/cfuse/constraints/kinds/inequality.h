@@ -3,7 +3,7 @@
 // The nominal slack is sqrt(max(g, 0)) at the nominal geometry.
 #pragma once
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 
@@ -32,15 +32,7 @@ class InequalityResidual : public AutoDiffResidual<InequalityResidual> {
 
   // Fills *nominal_slack with the slack that satisfies it at the nominal geometry.
   static ConstraintParts Create(ExprPtr lhs, ExprPtr rhs, bool greater, const KindContext& ctx,
-                                double* nominal_slack) {
-    BoundArgs args = BindArgs({std::move(lhs), std::move(rhs)}, ctx, true);
-    const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
-    if (!greater && v[0].x() != 0) RefuseZeroLength(*args.exprs[0], *args.exprs[1]);
-    *nominal_slack = NominalSlack(greater ? v[0].x() - v[1].x() : v[1].x() - v[0].x());
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<InequalityResidual>(std::move(args), greater), std::move(blocks),
-            ctx.slack_block};
-  }
+                                double* nominal_slack);
 
  private:
   BoundArgs args_;

@@ -5,10 +5,12 @@
 
 #include <fmt/format.h>
 
+#include "cfuse/constraints/expr.h"
 #include "cfuse/constraints/graph.h"
 #include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/joint_frames.h"
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/range_slack.h"
+#include "cfuse/kernel/residual.h"
 
 namespace cfuse {
 
@@ -70,7 +72,7 @@ class JointValueFunction : public AutoDiffResidual<JointValueFunction> {
   double centre_;
 };
 
-// q in [lower, upper] in the product form of kind_support.h, on the slots (parent, child,
+// q in [lower, upper] in the product form of range_slack.h, on the slots (parent, child,
 // slack). For a revolute joint q is measured from the middle of the range and wrapped, so
 // the atan2 branch cut sits half a turn away from the range's centre, outside the range.
 class JointLimitResidual : public AutoDiffResidual<JointLimitResidual> {

@@ -8,7 +8,7 @@
 
 #include <fmt/format.h>
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 
@@ -32,14 +32,7 @@ class ParallelResidual : public AutoDiffResidual<ParallelResidual> {
                        cfuse::Describe(*args_.exprs[1], names));
   }
 
-  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
-    RequireVectors(exprs, "parallel", false);
-    BoundArgs args = BindArgs(std::move(exprs), ctx, false);
-    const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
-    RequireNonZero(v, "parallel");
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<ParallelResidual>(std::move(args)), std::move(blocks)};
-  }
+  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx);
 
  private:
   BoundArgs args_;

@@ -3,7 +3,7 @@
 
 #include <fmt/format.h>
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 
@@ -24,14 +24,7 @@ class PerpendicularResidual : public AutoDiffResidual<PerpendicularResidual> {
                        cfuse::Describe(*args_.exprs[1], names));
   }
 
-  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx) {
-    RequireVectors(exprs, "perpendicular", false);
-    BoundArgs args = BindArgs(std::move(exprs), ctx, false);
-    const std::vector<Eigen::Vector3d> v = NominalValues(args, ctx);
-    RequireNonZero(v, "perpendicular");
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<PerpendicularResidual>(std::move(args)), std::move(blocks)};
-  }
+  static ConstraintParts Create(std::vector<ExprPtr> exprs, const KindContext& ctx);
 
  private:
   BoundArgs args_;

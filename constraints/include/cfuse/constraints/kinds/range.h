@@ -1,12 +1,13 @@
 // x in [lo, hi] for a scalar expression with constant bounds, in product form with one slack:
 //   (x - lo)(hi - x) / half² - λ² = 0,   half = (hi - lo) / 2.
 // Why one product equation rather than two one-sided inequalities: one slack instead of two,
-// and the row's gradient never vanishes (kind_support.h, RangeSlackResidual).
+// and the row's gradient never vanishes (range_slack.h).
 #pragma once
 
 #include <fmt/format.h>
 
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
+#include "cfuse/constraints/kinds/range_slack.h"
 
 namespace cfuse {
 
@@ -28,20 +29,7 @@ class RangeResidual : public AutoDiffResidual<RangeResidual> {
   }
 
   static ConstraintParts Create(ExprPtr x, double lo, double hi, const KindContext& ctx,
-                                double* nominal_slack) {
-    if (!(lo < hi)) {
-      throw KindError(fmt::format("empty range: the lower bound {} is not below the upper bound {}",
-                                  FormatQuantity(lo, x->type.quantity),
-                                  FormatQuantity(hi, x->type.quantity)));
-    }
-    BoundArgs args = BindArgs({std::move(x)}, ctx, true);
-    const double v = NominalValues(args, ctx)[0].x();
-    const double half = 0.5 * (hi - lo), u = (v - 0.5 * (lo + hi)) / half;
-    *nominal_slack = NominalSlack(1 - u * u);
-    std::vector<int> blocks = args.blocks;
-    return {std::make_shared<RangeResidual>(std::move(args), lo, hi), std::move(blocks),
-            ctx.slack_block};
-  }
+                                double* nominal_slack);
 
  private:
   BoundArgs args_;

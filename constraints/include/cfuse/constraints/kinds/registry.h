@@ -1,6 +1,6 @@
 // The constraint kinds the model languages can name. Adding a kind is one header in this
-// folder (a residual templated on the scalar, with a Create factory), its test, and one line
-// in registry.cpp.
+// folder (a residual templated on the scalar, declaring its Create factory), the factory in
+// constraints/src/kinds/<kind>.cpp, its test, and one line in registry.cpp.
 #pragma once
 
 #include <string>
@@ -9,7 +9,7 @@
 
 #include "cfuse/constraints/graph.h"
 #include "cfuse/constraints/kinds/joint_frames.h"
-#include "cfuse/constraints/kinds/kind_support.h"
+#include "cfuse/constraints/kinds/kind.h"
 
 namespace cfuse {
 

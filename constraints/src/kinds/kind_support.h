@@ -1,45 +1,20 @@
-// What every constraint kind's factory shares: the context it is built in, what it returns,
-// and how it reports a constraint that cannot be built (degenerate at the nominal geometry,
-// wrong argument types). KindError carries only the message; the caller (DSL, importer)
-// knows where in the user's file the constraint was written and wraps it into an InputError.
+// What the constraint kinds' factories (src/kinds/<kind>.cpp) share: binding arguments to
+// slots, their values at the nominal geometry, the refusals every kind makes (thrown as
+// KindError, cfuse/constraints/kinds/kind.h), the description of a call, the base points of a
+// group and the nominal slack. Internal to the constraints library.
 #pragma once
 
+#include <Eigen/Core>
 #include <array>
-#include <memory>
 #include <span>
-#include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "cfuse/constraints/expr.h"
-#include "cfuse/kernel/residual.h"
-#include "cfuse/kernel/values.h"
+#include "cfuse/constraints/kinds/kind.h"
 
-namespace cfuse {
-
-class KindError : public std::runtime_error {
- public:
-  using std::runtime_error::runtime_error;
-};
-
-struct KindContext {
-  const std::vector<Block>* blocks = nullptr;  // the graph's blocks so far
-  const Values* nominal = nullptr;             // their nominal values
-  int slack_block = -1;  // the block reserved for this constraint's slack, if it needs one
-};
-
-struct ConstraintParts {
-  std::shared_ptr<const ResidualFunction> residual;
-  std::vector<int> blocks;  // slot -> block id
-  int slack_block = -1;
-};
-
-// Expressions bound to local slots, with their blocks and the blocks' kinds.
-struct BoundArgs {
-  std::vector<ExprPtr> exprs;
-  std::vector<int> blocks;
-  std::vector<BlockKind> kinds;
-};
+namespace cfuse::internal {
 
 BoundArgs BindArgs(std::vector<ExprPtr> exprs, const KindContext& ctx, bool with_slack);
 
@@ -69,18 +44,8 @@ std::pair<std::array<int, 3>, double> LargestTriangle(const std::vector<Eigen::V
 std::pair<std::array<int, 2>, double> FarthestPair(const std::vector<Eigen::Vector3d>& p);
 double Extent(const std::vector<Eigen::Vector3d>& p);
 
-// The residual of "x in [mid - half, mid + half]" in product form with slack λ:
-//   1 - ((x - mid) / half)² - λ² = 0,  i.e.  (x - lo)(hi - x) / half² = λ².
-// One equation and one slack per range; its gradient never vanishes: in x it is nonzero at
-// both bounds (so an active bound pins x), in λ it is nonzero inside the range.
-template <typename T>
-T RangeSlackResidual(const T& x, double mid, double half, const T& slack) {
-  const T u = (x - T(mid)) / T(half);
-  return T(1) - u * u - slack * slack;
-}
-
 // The nominal slack of a range or a one-sided inequality whose normalised margin is `margin`
-// (>= 0 inside): sqrt(max(margin, 0)).
+// (>= 0 inside): sqrt(max(margin, 0)) (the slack form is cfuse/constraints/kinds/range_slack.h).
 double NominalSlack(double margin);
 
-}  // namespace cfuse
+}  // namespace cfuse::internal
