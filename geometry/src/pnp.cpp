@@ -10,6 +10,7 @@
 
 #include "cfuse/geometry/p3p.h"
 #include "cfuse/geometry/undistort.h"
+#include "cfuse/kernel/so3.h"
 
 namespace cfuse {
 namespace {
@@ -86,7 +87,7 @@ struct Problem {
         d_projection_d_p << camera.fx * iz, 0, -camera.fx * p.x() * iz * iz,  //
             0, camera.fy * iz, -camera.fy * p.y() * iz * iz;
         Eigen::Matrix<double, 3, 6> d_p_d_step;
-        d_p_d_step << -SkewSymmetric(rotated), Eigen::Matrix3d::Identity();
+        d_p_d_step << -Hat<double>(rotated), Eigen::Matrix3d::Identity();
         const Eigen::Matrix<double, 2, 6> J = d_projection_d_p * d_p_d_step;
         H.noalias() += J.transpose() * J;
         g.noalias() += J.transpose() * r;
@@ -116,12 +117,6 @@ struct Problem {
       if (!improved) break;
     }
     *camera_from_object = pose;
-  }
-
-  static Eigen::Matrix3d SkewSymmetric(const Eigen::Vector3d& v) {
-    Eigen::Matrix3d m;
-    m << 0, -v.z(), v.y(), v.z(), 0, -v.x(), -v.y(), v.x(), 0;
-    return m;
   }
 
   // The correspondences within 2.5 robust standard deviations of camera_from_object, the
