@@ -28,10 +28,10 @@ Errors Run(const ConstraintGraph& graph, const std::vector<SequenceFrame>& frame
 ConstraintGraph HingedBox() { return LoadModel(testing::SourcePath("examples/hinged-box.yaml")); }
 ConstraintGraph RigidBox() { return ImportCao(testing::SourcePath("tests/data/cao/file_box.cao")); }
 
-// The rigid box knocked about 100 px at frame 15, past the doubled search range.
+// The rigid box knocked about 200 px at frame 15, past the doubled search range.
 std::vector<SequenceFrame> Knocked(const ConstraintGraph& graph, int frames) {
   SequenceSpec spec = StandardSequence(graph, "steady", frames, 5);
-  spec.jump = Eigen::Vector3d(0.16, 0.04, 0);
+  spec.jump = Eigen::Vector3d(0.3, 0.08, 0);
   spec.jump_frame = 15;
   return RenderSequence(graph, StandardCamera(), spec);
 }
@@ -104,7 +104,7 @@ std::shared_ptr<const std::vector<GrayImage>> Photographs() {
 TEST_CASE("tracker: after a loss the lid is looked for across its range", "[tracker][heavy]") {
   // The realistic `steady` sequence of 120 frames, seed 6: where the lid stands edge-on the track
   // is lost, and found again with the lid where it was last seen, which the box's rim supports
-  // nearly as well. Re-tracked with the lid at values across its limits
+  // nearly as well, so that frames are verified with the lid wrong. Re-tracked with the lid at values across its limits
   // (TrackerOptions::settle_joint_values), the frame keeps the value that explains the image.
   const ConstraintGraph graph = HingedBox();
   const SequenceSpec spec =
@@ -120,8 +120,7 @@ TEST_CASE("tracker: after a loss the lid is looked for across its range", "[trac
   TrackerOptions fixed_joints;
   fixed_joints.settle_joint_values = 0;
   const Errors without = Run(graph, sequence, fixed_joints);
-  CHECK(without.verified < 0.7 * without.frames);  // what it is for
-  CHECK(wrong(without) >= 1);
+  CHECK(wrong(without) >= 1);  // what it is for
   const Errors e = Run(graph, sequence);
   CHECK(wrong(e) == 0);
   CHECK(e.verified >= 0.85 * e.frames);

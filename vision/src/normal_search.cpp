@@ -28,9 +28,11 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
                       const Eigen::Vector2f& normal, float range,
                       const NormalSearchOptions& options, std::vector<ProfileHit>* hits) {
   if (!(range >= 0) || !point.allFinite() || !normal.allFinite()) return 0;
-  // Profile points k = -K - 1 .. K + 1, so that D(k) exists for |k| <= K.
+  // Profile points k = -K - 1 .. K + 1, so that D(k) exists for |k| <= K: one more than the
+  // search reaches, so that a hit at the end of the range is judged against its real
+  // neighbour outside it (a slope rising past the end is not a peak there).
   constexpr int kMaxReach = 256;
-  const int K = std::min(kMaxReach, static_cast<int>(std::ceil(range)));
+  const int K = std::min(kMaxReach, static_cast<int>(std::floor(range)) + 1);
   const int n = 2 * K + 3;
   float profile[2 * kMaxReach + 3];
   const Eigen::Vector2f tangent(normal.y(), -normal.x());
