@@ -30,6 +30,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <opencv2/imgcodecs.hpp>
@@ -42,6 +43,7 @@
 #include "bench/visp_tracker.h"
 #include "cfuse/geometry/model_edges.h"
 #include "cfuse/importers/cao.h"
+#include "cfuse/track/detector.h"
 #include "cfuse/track/tracker.h"
 
 namespace {
@@ -300,6 +302,81 @@ double Mean(const std::vector<double>& v) {
 
 }  // namespace
 
+// Detection with no pose given, frame by frame: found right (the root's edges at most 3 px on
+// average from the reference's), found wrong, not found, and the time split.
+void DetectFrames(const ConstraintGraph& graph, const std::vector<ModelEdge>& edges,
+                  const Sequence& s, const std::vector<cv::Mat>& frames,
+                  const std::vector<Rigid3d>& reference, const DetectorOptions& options,
+                  bool verbose) {
+  int right = 0, wrong = 0, missed = 0;
+  std::vector<double> ms, errors;
+  DetectionStats sum;
+  for (int i = 0; i < s.count; ++i) {
+    const GrayView view{frames[i].data, frames[i].cols, frames[i].rows,
+                        static_cast<int>(frames[i].step)};
+    const auto start = std::chrono::steady_clock::now();
+    const Detection d = Detect(graph, s.camera, view, options);
+    ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count());
+    sum.segment_ms += d.stats.segment_ms;
+    sum.orientation_ms += d.stats.orientation_ms;
+    sum.ranking_ms += d.stats.ranking_ms;
+    sum.tracking_ms += d.stats.tracking_ms;
+    sum.poses += d.stats.poses;
+    sum.junctions += d.stats.junctions;
+    double px = NAN, mm = NAN;
+    if (d.found.empty()) {
+      ++missed;
+    } else {
+      const Rigid3d pose = d.found[0].estimate.mean.poses[0] * graph.nominal.poses[0].Inverse();
+      px = EdgeDistance(graph, edges, s.camera, pose, reference[i]);
+      mm = 1000 * (pose.translation - reference[i].translation).norm();
+      (px <= 3 ? right : wrong) += 1;
+      errors.push_back(mm);
+    }
+    if (verbose) {
+      // The best candidate's rank among those tracked that verified, for tuning the ranking.
+      int first_verified = -1;
+      for (size_t c = 0; c < d.candidates.size() && first_verified < 0; ++c) {
+        if (d.candidates[c].frame.verified) first_verified = static_cast<int>(c);
+      }
+      fmt::print("{} frame {}: {} ({} px, {} mm), {} junctions, {} poses, {} candidates, first "
+                 "verified {}, {:.1f} ms{}{}\n",
+                 s.name, s.first + i, d.found.empty() ? "not found" : (px <= 3 ? "right" : "WRONG"),
+                 Num(px), Num(mm), d.stats.junctions, d.stats.poses, d.stats.candidates,
+                 first_verified, ms.back(), d.why.empty() ? "" : ": ", d.why);
+      if (!d.found.empty()) {
+        const Verification& v = d.found[0].verification;
+        fmt::print("  found: share {:.2f} dominant {:.2f} agreement {:.2f} spread {:.2f} chance "
+                   "{:.2f} explained {:.0f} samples {} least {:.2f}\n",
+                   v.share, v.dominant_share, v.agreement, v.spread, v.chance,
+                   ExplainedEvidence(v), v.samples, v.least_component);
+      }
+      if (std::getenv("CFUSE_DETECT_CANDIDATES")) {
+        for (const DetectionCandidate& c : d.candidates) {
+          const Rigid3d pose =
+              c.frame.estimate.mean.poses[0] * graph.nominal.poses[0].Inverse();
+          fmt::print("  candidate: component {} vertex {} evidence {:.1f}: {} {:.1f} px, "
+                     "explained {:.1f}, share {:.2f} agreement {:.2f} dominant {:.2f} spread {:.2f} chance {:.2f} {}\n",
+                     c.component, c.vertex, c.evidence, c.frame.verified ? "verified" : "refused",
+                     EdgeDistance(graph, edges, s.camera, pose, reference[i]),
+                     ExplainedEvidence(c.frame.verification), c.frame.verification.share,
+                     c.frame.verification.agreement, c.frame.verification.dominant_share,
+                     c.frame.verification.spread, c.frame.verification.chance,
+                     c.frame.verification.why);
+        }
+      }
+    }
+  }
+  const double n = s.count;
+  fmt::print("| {} | {} | {}/{} | {} | {} | {} | {:.1f} | {:.1f}, {:.1f}, {:.1f}, {:.1f} | {:.0f} | "
+             "{:.0f} |\n",
+             s.name, graph.name, right, s.count, wrong, missed, Num(Median(errors)), Median(ms),
+             sum.segment_ms / n, sum.orientation_ms / n, sum.ranking_ms / n, sum.tracking_ms / n,
+             sum.junctions / n, sum.poses / n);
+}
+
 int main(int argc, char** argv) {
   CLI::App app{"cfuse's tracker and ViSP's on visp-images-data's sequences"};
   std::string names = "castle-simu,castel", csv_dir;
@@ -321,6 +398,11 @@ int main(int argc, char** argv) {
                  "cfuse runs per cell, each from the start moved by up to 1 mm and 0.3 degrees "
                  "(the first unmoved): a track's spread over nearly equal starts");
   app.add_flag("--segments", segments, "cfuse with segments for edge evidence too");
+  bool detect = false, verbose = false;
+  app.add_flag("--detect", detect, "detection with no pose given on every frame, not tracking");
+  app.add_flag("--verbose", verbose, "a line per frame (--detect)");
+  int candidates = 0;
+  app.add_option("--candidates", candidates, "poses tracked per frame (--detect)");
   std::string without;
   app.add_option("--without", without, std::string("safeguards off, comma-separated: ") +
                                            bench::kSafeguards);
@@ -375,6 +457,12 @@ int main(int argc, char** argv) {
                            p.translation.x(), p.translation.y(), p.translation.z(), p.rotation.w(),
                            p.rotation.x(), p.rotation.y(), p.rotation.z());
       }
+    }
+    if (detect) {
+      DetectorOptions detector;
+      if (candidates > 0) detector.max_candidates = candidates;
+      DetectFrames(graph, edges, s, frames, reference, detector, verbose);
+      continue;
     }
     for (int k : steps) {
       std::vector<int> picked;

@@ -12,6 +12,7 @@
 
 #include "cli/commands.h"
 #include "cli/image_commands.h"
+#include "cli/detect_command.h"
 #include "cli/track_command.h"
 
 namespace cfuse::cli {
@@ -180,6 +181,19 @@ std::function<int()> DeclareTrack(CLI::App* cmd) {
   };
 }
 
+std::function<int()> DeclareDetect(CLI::App* cmd) {
+  auto o = std::make_shared<DetectCommandOptions>();
+  cmd->add_option("MODEL", o->model, "Model file (.yaml, .urdf or .cao)")->required();
+  cmd->add_option("--camera", o->camera, "Camera file (without a size: the image's)")->required();
+  cmd->add_option("--image", o->image, "The image to find the model in")->required();
+  cmd->add_option("-o,--output", o->output, "Result file, JSON (default: stdout)");
+  cmd->add_option("--overlay", o->overlay, "PNG of the model drawn where it was found");
+  cmd->add_option("--max-results", o->max_results, "Objects reported at most")
+      ->check(CLI::Range(1, 100))
+      ->capture_default_str();
+  return [o] { return RunDetect(*o, std::cout, std::cerr); };
+}
+
 std::function<int()> DeclareDemo(CLI::App* cmd) {
   auto o = std::make_shared<DemoCommandOptions>();
   cmd->add_option("--picture", o->picture, "PNG picture to write")->capture_default_str();
@@ -209,6 +223,8 @@ const std::vector<Subcommand>& Subcommands() {
        DeclareRender},
       {"track", "Track the model through an image sequence (Lowe 1992 on constraint fusion)",
        DeclareTrack},
+      {"detect", "Find the model in one image with no pose given (junctions, P3P, verification)",
+       DeclareDetect},
       {"demo",
        "The built-in desk lamp simulated with clutter and occlusion, then interpreted; the hinged "
        "box tracked through a rendered sequence",

@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <string>
 #include <vector>
 
 #include "cfuse/interp/joint_estimates.h"
@@ -13,6 +15,17 @@
 namespace cfuse::testing {
 
 inline GrayView View(const Rendering& r) { return {r.pixels.data(), r.width, r.height, r.width}; }
+
+// A 4 x 4 camera_from_object matrix, row by row, as Castle-simu's CameraPose/ files hold it.
+inline Rigid3d ReadPoseMatrix(const std::string& path) {
+  std::ifstream in(path);
+  double m[16];
+  for (double& x : m) in >> x;
+  Eigen::Matrix3d r;
+  for (int i = 0; i < 3; ++i)
+    for (int j = 0; j < 3; ++j) r(i, j) = m[4 * i + j];
+  return Rigid3d(Eigen::Quaterniond(r).normalized(), Eigen::Vector3d(m[3], m[7], m[11]));
+}
 
 struct Errors {
   int frames = 0, verified = 0;

@@ -24,6 +24,7 @@
 #include "cfuse/importers/visp.h"
 #include "cfuse/track/tracker.h"
 #include "test_util.h"
+#include "track/track_run.h"
 
 namespace cfuse {
 namespace {
@@ -39,16 +40,6 @@ struct Sequence {
   std::vector<Rigid3d> reference;  // camera_from_object per frame
   Rigid3d start;
 };
-
-Rigid3d ReadMatrix(const fs::path& path) {
-  std::ifstream in(path);
-  double m[16];
-  for (double& x : m) in >> x;
-  Eigen::Matrix3d r;
-  for (int i = 0; i < 3; ++i)
-    for (int j = 0; j < 3; ++j) r(i, j) = m[4 * i + j];
-  return Rigid3d(Eigen::Quaterniond(r).normalized(), Eigen::Vector3d(m[3], m[7], m[11]));
-}
 
 std::vector<cv::Mat> ReadFrames(const fs::path& dir, const char* format, int first, int count) {
   std::vector<cv::Mat> out;
@@ -75,7 +66,7 @@ Sequence CastleSimu() {
   for (int k = 1; k <= 40; ++k) {
     char name[64];
     std::snprintf(name, sizeof name, "CameraPose/Camera_%03d.txt", k);
-    s.reference.push_back(ReadMatrix(d / name));
+    s.reference.push_back(testing::ReadPoseMatrix((d / name).string()));
   }
   s.start = s.reference[0];
   return s;

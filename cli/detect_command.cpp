@@ -1,0 +1,147 @@
+#include "cli/detect_command.h"
+
+#include <fmt/format.h>
+
+#include <nlohmann/json.hpp>
+#include <ostream>
+
+#include "cfuse/geometry/model_edges.h"
+#include "cfuse/track/detector.h"
+#include "cli/command_support.h"
+#include "cli/image_support.h"
+#include "cli/results.h"
+#include "cli/track_overlay.h"
+
+namespace cfuse::cli {
+namespace {
+
+nlohmann::json OutlineJson(const Verification& v) {
+  return {{"samples", v.samples},
+          {"supported", v.supported},
+          {"share", v.share},
+          {"chance", v.chance},
+          {"dominant_share", v.dominant_share},
+          {"explained", ExplainedEvidence(v)}};
+}
+
+nlohmann::json FrameJson(const ConstraintGraph& graph, const TrackedFrame& f) {
+  nlohmann::json j = PosesJson(graph, f.estimate.mean);
+  j["verified"] = f.verified;
+  j["matches"] = f.matches;
+  j["fit"] = {{"chi2", f.chi2}, {"dof", f.fit_dof}, {"residual_px", f.residual_sigma}};
+  j["position_sigma_m"] = f.position_sigma;
+  j["outline"] = OutlineJson(f.verification);
+  if (!f.verified) j["refused"] = f.verification.why;
+  return j;
+}
+
+}  // namespace
+
+int RunDetect(const DetectCommandOptions& options, std::ostream& out, std::ostream& err) {
+  return Guarded(err, [&] {
+    for (const std::string* path : {&options.output, &options.overlay}) {
+      if (!path->empty()) RequireWritable(*path);
+    }
+    if (options.max_results < 1) {
+      throw InputError(SourceLocation("--max-results"), "must be at least 1");
+    }
+    const ConstraintGraph graph = LoadAnyModel(options.model);
+    if (ModelEdges(graph).empty()) {
+      throw InputError(SourceLocation(options.model),
+                       fmt::format("model '{}' has no edges to find in an image (give its "
+                                   "components edges, or faces whose sides become edges)",
+                                   graph.name));
+    }
+    Camera camera = LoadAnyCamera(options.camera);
+    const cv::Mat image = ReadGrayImage(options.image);
+    if (camera.width <= 0 || camera.height <= 0) {
+      SizeCameraFromImage(image, options.image, options.camera, &camera);
+    } else if (image.cols != camera.width || image.rows != camera.height) {
+      throw InputError(SourceLocation(options.image),
+                       fmt::format("the image is {} x {}, the camera's ({}) {} x {}", image.cols,
+                                   image.rows, options.camera, camera.width, camera.height));
+    }
+    const GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
+    DetectorOptions detector;
+    detector.max_results = options.max_results;
+    const Detection d = Detect(graph, camera, view, detector);
+
+    nlohmann::json json = {{"model", graph.name}, {"image", options.image},
+                           {"found", !d.found.empty()}, {"objects", nlohmann::json::array()}};
+    for (size_t i = 0; i < d.found.size(); ++i) {
+      nlohmann::json object = FrameJson(graph, d.found[i]);
+      object["same_outline_elsewhere"] = nlohmann::json::array();
+      for (const Values& twin : d.twins[i]) {
+        object["same_outline_elsewhere"].push_back(PosesJson(graph, twin)["components"]);
+      }
+      json["objects"].push_back(object);
+    }
+    if (!d.why.empty()) json["why"] = d.why;
+    // The best candidates refused, for a user asking why nothing (or nothing else) was found.
+    json["refused"] = nlohmann::json::array();
+    for (const DetectionCandidate& c : d.candidates) {
+      if (json["refused"].size() >= 5) break;
+      if (c.tracked && !c.frame.verified) json["refused"].push_back(FrameJson(graph, c.frame));
+    }
+    const DetectionStats& s = d.stats;
+    json["stats"] = {{"segments", s.segments},         {"junctions", s.junctions},
+                     {"vertices", s.vertices},         {"poses_ranked", s.poses},
+                     {"candidates_tracked", s.candidates},
+                     {"junctions_cut", s.junctions_cut}, {"poses_cut", s.poses_cut},
+                     {"ms", {{"segments", s.segment_ms},
+                             {"orientations", s.orientation_ms},
+                             {"ranking", s.ranking_ms},
+                             {"tracking", s.tracking_ms},
+                             {"total", s.Total()}}}};
+    const std::string text = json.dump(2) + "\n";
+    if (!options.overlay.empty()) {
+      OverlayOptions overlay;
+      if (!d.found.empty()) {
+        overlay.caption = fmt::format("found  {} matches  {:.0f} ms", d.found[0].matches, s.Total());
+        WriteFileAtomically(options.overlay,
+                            PngBytes(DrawOverlay(view, graph, camera, d.found[0], overlay)));
+      } else {
+        // The best candidate tracked, marked as refused.
+        TrackedFrame best;
+        for (const DetectionCandidate& c : d.candidates) {
+          if (c.tracked) {
+            best = c.frame;
+            break;
+          }
+        }
+        overlay.caption = fmt::format("NOT FOUND  {:.0f} ms", s.Total());
+        WriteFileAtomically(options.overlay, PngBytes(DrawOverlay(view, graph, camera, best, overlay)));
+      }
+    }
+    if (options.output.empty()) {
+      out << text;
+    } else {
+      WriteFileAtomically(options.output, text);
+    }
+    if (d.found.empty()) {
+      err << fmt::format("cfuse detect: {} not found in {}: {}\n", graph.name, options.image, d.why);
+      return 1;
+    }
+    for (size_t i = 0; i < d.found.size(); ++i) {
+      const Verification& v = d.found[i].verification;
+      err << fmt::format(
+          "cfuse detect: {} found ({} of {}): {} matched edges, {:.0f} % of the outline supported "
+          "(chance {:.0f} %), {:.1f} px RMS{}\n",
+          graph.name, i + 1, d.found.size(), d.found[i].matches, 100 * v.share, 100 * v.chance,
+          d.found[i].residual_sigma,
+          d.twins[i].empty()
+              ? ""
+              : fmt::format("; the same outline at {} other pose(s): the model's symmetry, "
+                            "which the image cannot tell apart",
+                            d.twins[i].size()));
+    }
+    if (s.junctions_cut || s.poses_cut) {
+      err << "cfuse detect: the search was cut short (" <<
+          (s.junctions_cut ? "junctions beyond the strongest left out" : "the ranked poses' bound reached")
+          << ")\n";
+    }
+    return 0;
+  });
+}
+
+}  // namespace cfuse::cli

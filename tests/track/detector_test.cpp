@@ -1,0 +1,162 @@
+// Detection with no pose given (cfuse/track/detector.h): ViSP's Castle-simu frames found at their
+// true pose, the rigid box found in renders of the project's own, nothing found in an image
+// without the object (with the reason), and the inputs it refuses.
+#include "cfuse/track/detector.h"
+
+#include <catch2/catch.hpp>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "cfuse/importers/cao.h"
+#include "cfuse/importers/visp.h"
+#include "cfuse/kernel/error.h"
+#include "cfuse/vision/sequence.h"
+#include "test_util.h"
+#include "track/track_run.h"
+
+namespace cfuse {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kCastle = "/usr/share/visp-images-data/ViSP-images/mbt-depth/Castle-simu";
+
+GrayView View(const cv::Mat& m) {
+  return {m.data, m.cols, m.rows, static_cast<int>(m.step)};
+}
+
+// The largest distance (px) between where `a` and `b` project the model's points.
+double PointDistance(const ConstraintGraph& graph, const Camera& camera, const Values& a,
+                     const Values& b) {
+  double most = 0;
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    const Rigid3d& pa = a.poses[graph.blocks[c.block].index];
+    const Rigid3d& pb = b.poses[graph.blocks[c.block].index];
+    for (const FeaturePoint& p : c.points) {
+      most = std::max(most, (camera.Project<double>(pa * p.position) -
+                             camera.Project<double>(pb * p.position))
+                                .norm());
+    }
+  }
+  return most;
+}
+
+// The largest distance (px) from where `a` projects a model point to the nearest of the points
+// `b` projects: PointDistance for a model with no symmetry, and 0 for a box turned half round.
+double SetDistance(const ConstraintGraph& graph, const Camera& camera, const Values& a,
+                   const Values& b) {
+  std::vector<Eigen::Vector2d> pb;
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    for (const FeaturePoint& p : c.points) {
+      pb.push_back(camera.Project<double>(b.poses[graph.blocks[c.block].index] * p.position));
+    }
+  }
+  double most = 0;
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    for (const FeaturePoint& p : c.points) {
+      const Eigen::Vector2d q = camera.Project<double>(a.poses[graph.blocks[c.block].index] * p.position);
+      double nearest = INFINITY;
+      for (const Eigen::Vector2d& r : pb) nearest = std::min(nearest, (q - r).norm());
+      most = std::max(most, nearest);
+    }
+  }
+  return most;
+}
+
+TEST_CASE("detector: Castle-simu's frames found at their true pose with no pose given",
+          "[tracker]") {
+  if (!fs::exists(kCastle)) {
+    WARN("visp-images-data is not installed: skipped");
+    return;
+  }
+  const ConstraintGraph graph = ImportCao((kCastle / "Models/chateau.cao").string());
+  Camera camera = ReadVispCamera((kCastle / "Config/chateau.xml").string());
+  for (const int k : {1, 20, 40}) {
+    CAPTURE(k);
+    char name[64];
+    std::snprintf(name, sizeof name, "Images/Image_%04d.pgm", k);
+    const cv::Mat image = cv::imread((kCastle / name).string(), cv::IMREAD_GRAYSCALE);
+    REQUIRE_FALSE(image.empty());
+    camera.width = image.cols;
+    camera.height = image.rows;
+    std::snprintf(name, sizeof name, "CameraPose/Camera_%03d.txt", k);
+    Values truth = graph.nominal;
+    const Rigid3d camera_from_object = testing::ReadPoseMatrix((kCastle / name).string());
+    for (Rigid3d& pose : truth.poses) pose = camera_from_object * pose;
+
+    const Detection d = Detect(graph, camera, View(image));
+    REQUIRE(d.found.size() == 1);
+    CHECK(d.found[0].verified);
+    CHECK(d.why.empty());
+    CHECK(PointDistance(graph, camera, d.found[0].estimate.mean, truth) < 3);
+    CHECK(d.stats.junctions > 10);
+    CHECK(d.stats.poses > 1000);
+    CHECK(d.stats.candidates >= 1);
+    CHECK_FALSE(d.stats.poses_cut);
+  }
+}
+
+TEST_CASE("detector: the rigid box found in renders at several poses", "[tracker]") {
+  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  int found = 0;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    const std::vector<SequenceFrame> frames =
+        RenderSequence(graph, StandardCamera(), StandardSequence(graph, "steady", 1, seed));
+    const Detection d = Detect(graph, StandardCamera(), testing::View(frames[0].rendering));
+    CAPTURE(seed, d.why);
+    // Whatever is found is right, up to the box's symmetry: its corners where the truth's are,
+    // in some order.
+    for (const TrackedFrame& f : d.found) {
+      CHECK(SetDistance(graph, StandardCamera(), f.estimate.mean, frames[0].truth) < 3);
+      CHECK(SetDistance(graph, StandardCamera(), frames[0].truth, f.estimate.mean) < 3);
+    }
+    found += !d.found.empty();
+  }
+  CHECK(found >= 3);
+}
+
+TEST_CASE("detector: an image without the object finds nothing and says why", "[tracker]") {
+  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  const Camera camera = StandardCamera();
+  // A blank image: no segments, no junctions.
+  std::vector<std::uint8_t> blank(static_cast<size_t>(camera.width) * camera.height, 128);
+  const Detection none = Detect(graph, camera, {blank.data(), camera.width, camera.height, camera.width});
+  CHECK(none.found.empty());
+  CHECK(none.why.find("no junction") != std::string::npos);
+  // Disks of every size and grey: edges and junctions of a sort, but no box.
+  cv::Mat disks(camera.height, camera.width, CV_8U, cv::Scalar(90));
+  for (int k = 0; k < 40; ++k) {
+    cv::circle(disks, cv::Point(37 * k % camera.width, 53 * k % camera.height), 10 + 7 * (k % 5),
+               cv::Scalar(30 + 5 * k), cv::FILLED);
+  }
+  cv::rectangle(disks, cv::Rect(100, 100, 40, 200), cv::Scalar(220), cv::FILLED);
+  const Detection d = Detect(graph, camera, View(disks));
+  CHECK(d.found.empty());
+  CHECK_FALSE(d.why.empty());
+}
+
+TEST_CASE("detector: refuses an image of another size, an empty one, a model without edges",
+          "[tracker]") {
+  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  const Camera camera = StandardCamera();
+  std::vector<std::uint8_t> small(100 * 80, 128);
+  CHECK_THROWS_WITH(Detect(graph, camera, {small.data(), 100, 80, 100}),
+                    Catch::Contains("the image is 100 x 80, the camera's"));
+  CHECK_THROWS_AS(Detect(graph, camera, GrayView{}), InputError);
+  ConstraintGraph bare = graph;
+  for (Component& c : bare.components) {
+    c.edges.clear();
+    c.faces.clear();
+  }
+  std::vector<std::uint8_t> image(static_cast<size_t>(camera.width) * camera.height, 128);
+  CHECK_THROWS_WITH(Detect(bare, camera, {image.data(), camera.width, camera.height, camera.width}),
+                    Catch::Contains("no edges to find"));
+}
+
+}  // namespace
+}  // namespace cfuse

@@ -1,0 +1,73 @@
+// Junctions of segments (cfuse/vision/junctions.h) on segments placed by hand: an L-junction with
+// a gap at its corner, and the pairs that make none (a T, a shallow angle, ends too far apart,
+// a short arm).
+#include "cfuse/vision/junctions.h"
+
+#include <catch2/catch.hpp>
+
+namespace cfuse {
+namespace {
+
+ImageSegment Segment(float ax, float ay, float bx, float by, float strength = 30) {
+  ImageSegment s;
+  s.a = Eigen::Vector2f(ax, ay);
+  s.b = Eigen::Vector2f(bx, by);
+  s.strength = strength;
+  return s;
+}
+
+TEST_CASE("junctions: two segments ending near a common corner meet at their lines' crossing",
+          "[vision]") {
+  // A horizontal segment ending 3 px before x = 100 and a vertical one starting 2 px below y =
+  // 50: the corner is (100, 50), whichever way round the segments run.
+  for (const bool flip : {false, true}) {
+    std::vector<ImageSegment> segments = {Segment(40, 50, 97, 50), Segment(100, 52, 100, 90)};
+    if (flip) std::swap(segments[0].a, segments[0].b);
+    const std::vector<Junction> j = FindJunctions(segments);
+    REQUIRE(j.size() == 1);
+    CHECK((j[0].corner - Eigen::Vector2d(100, 50)).norm() < 1e-9);
+    const int h = j[0].segment[0] == 0 ? 0 : 1;  // the horizontal arm
+    CHECK(j[0].segment[h] == 0);
+    CHECK(j[0].end[h] == (flip ? 0 : 1));
+    CHECK((j[0].far[h] - Eigen::Vector2d(40, 50)).norm() < 1e-9);
+    CHECK((j[0].direction[h] - Eigen::Vector2d(-1, 0)).norm() < 1e-9);
+    CHECK((j[0].far[1 - h] - Eigen::Vector2d(100, 90)).norm() < 1e-9);
+    CHECK((j[0].direction[1 - h] - Eigen::Vector2d(0, 1)).norm() < 1e-9);
+    // The lesser contrast times the shorter arm (40 px).
+    CHECK(j[0].strength == Approx(30 * 40));
+  }
+}
+
+TEST_CASE("junctions: a T, a shallow angle, a wide gap or a short arm make no junction",
+          "[vision]") {
+  // The vertical segment ends on the middle of the horizontal one: its crossing lies 30 px from
+  // either end of the horizontal one.
+  CHECK(FindJunctions({Segment(40, 50, 160, 50), Segment(100, 52, 100, 90)}).empty());
+  // 10 degrees apart, below min_angle's 20.
+  const float t = std::tan(static_cast<float>(10 * M_PI / 180));
+  CHECK(FindJunctions({Segment(40, 50, 100, 50), Segment(100, 50, 160, 50 + 60 * t)}).empty());
+  // Ends 9 px from the crossing, beyond max_gap's 6.
+  CHECK(FindJunctions({Segment(40, 50, 91, 50), Segment(100, 59, 100, 90)}).empty());
+  // ... unless the gap allowed is wider.
+  JunctionOptions wide;
+  wide.max_gap = 10;
+  CHECK(FindJunctions({Segment(40, 50, 91, 50), Segment(100, 59, 100, 90)}, wide).size() == 1);
+  // An arm of 8 px, below min_arm_length's 12.
+  CHECK(FindJunctions({Segment(40, 50, 100, 50), Segment(100, 50, 100, 58)}).empty());
+}
+
+TEST_CASE("junctions: the corners of a rectangle, strongest first", "[vision]") {
+  // A rectangle's four sides, each of another contrast: four junctions, ordered by the lesser
+  // contrast times the shorter arm.
+  const std::vector<ImageSegment> sides = {Segment(10, 10, 110, 10, 10), Segment(110, 10, 110, 60, 20),
+                                           Segment(110, 60, 10, 60, 30), Segment(10, 60, 10, 10, 40)};
+  const std::vector<Junction> j = FindJunctions(sides);
+  REQUIRE(j.size() == 4);
+  for (size_t i = 1; i < j.size(); ++i) CHECK(j[i - 1].strength >= j[i].strength);
+  // The strongest: sides 2 and 3 (contrasts 30 and 40) at (10, 60), arms of 100 and 50 px.
+  CHECK((j[0].corner - Eigen::Vector2d(10, 60)).norm() < 1e-9);
+  CHECK(j[0].strength == Approx(30 * 50));
+}
+
+}  // namespace
+}  // namespace cfuse

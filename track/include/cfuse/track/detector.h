@@ -1,0 +1,113 @@
+// Finding a model in one image with no pose given: recognition integrated with tracking (Lowe
+// 1992's next step), by hypotheses from image corners, ranked by cheap evidence, each tracked
+// and verified as the tracker verifies a frame.
+//
+//  1. Features. Segments (Lowe's detector, segments.h), and the junctions where two of them end
+//     at a common corner (junctions.h): a junction and the far ends of its two arms are three
+//     image points.
+//  2. Hypotheses. Each junction is matched to each vertex of each rigid component where two of
+//     its edges meet, the arms to those edges (both ways round): Lambda Twist P3P (p3p.h) on the
+//     vertex and its two neighbours gives up to four poses of that component, and the model's
+//     other components follow at their nominal joint values. An arm may stop short of the
+//     neighbouring vertex or run past it (occlusion, a broken or merged segment): such a pose is
+//     rough, which the tracking in step 4 forgives, or wrong, which the ranking in step 3 and
+//     the verification in step 4 refuse.
+//  3. Ranking. Each pose is scored by what its component's edges, hidden faces culled, explain of
+//     the image: samples along them with a step of about their orientation nearby, less what
+//     chance gives at that orientation (edge_orientations.h). The best, spread apart (no two
+//     within `spread_pixels` in the image and `spread_degrees` of each other), are the candidates.
+//  4. Verification. Each candidate starts a tracker (tracker.h) on this image: its edges matched
+//     by Lowe's best-first search, the pose and the joints estimated by the kernel, the outline
+//     verified (with one doubling of the search range at most). Verified candidates that reach
+//     the same pose, or draw the same outline (a symmetric model), are one answer. The best (the
+//     most of the image explained, ExplainedEvidence) is refused as ambiguous when another pose
+//     over the same part of the image explains nearly as much (TrackerOptions::decisive_share),
+//     and when it shows the object less plainly than a pose found with no prior must
+//     (`min_margin`, `min_dominant`); else it is settled as the tracker settles a first frame:
+//     tracked again from places about it, a lid across its range.
+//
+// The search is bounded: at most `max_junctions` junctions, `max_poses` scored poses and
+// `max_candidates` tracked; Detection says when a bound cut it short.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include "cfuse/constraints/graph.h"
+#include "cfuse/kernel/measurements/camera.h"
+#include "cfuse/track/tracker.h"
+#include "cfuse/vision/edge_orientations.h"
+#include "cfuse/vision/junctions.h"
+#include "cfuse/vision/segments.h"
+
+namespace cfuse {
+
+struct DetectorOptions {
+  SegmentOptions segments;
+  JunctionOptions junctions;
+  EdgeOrientationOptions orientations;
+  int max_junctions = 120;   // the strongest junctions seed hypotheses
+  long max_poses = 400000;   // P3P poses scored at most
+  int max_candidates = 12;   // the best poses, spread apart, tracked and verified
+  int max_results = 1;       // objects reported
+  double sample_step = 4;    // px between the ranking's samples along an edge
+  double min_samples = 12;   // a pose showing fewer samples in the image is not ranked
+  double min_depth = 0.02;   // m: every point of the seeded component in front of the camera
+  double spread_pixels = 10;  // candidates' seeded vertices at least this far apart ...
+  double spread_degrees = 15;  // ... or turned this much from each other
+  // A found pose, searched for among thousands with no prior to hold it, must show the object
+  // more plainly than a tracked frame: its outline supported beyond chance's share by at least
+  // `min_margin`, and at least `min_dominant` of it dominated by its edges (verification.h). On a
+  // textured scene a pose among thousands fits the texture as well as a tracked frame's tests ask.
+  double min_margin = 0.5;
+  double min_dominant = 0.55;
+  TrackerOptions tracker;
+};
+
+// One pose of the ranking: the whole model placed by the seeded component's pose.
+struct DetectionCandidate {
+  Values values;
+  int component = -1;      // seeded
+  int vertex = -1;         // its point matched to the junction's corner
+  int junction = -1;       // index into Detection::junctions
+  double evidence = 0;     // samples supported beyond chance
+  TrackedFrame frame;      // tracked from `values` (when tracked)
+  bool tracked = false;
+};
+
+struct DetectionStats {
+  int segments = 0, junctions = 0, vertices = 0;
+  long poses = 0;        // scored
+  int candidates = 0;    // tracked
+  bool junctions_cut = false, poses_cut = false;  // a bound left seeds out
+  // ms
+  double segment_ms = 0, orientation_ms = 0, ranking_ms = 0, tracking_ms = 0;
+  double Total() const { return segment_ms + orientation_ms + ranking_ms + tracking_ms; }
+};
+
+struct Detection {
+  // Verified objects, the most of the image explained first (at most max_results).
+  std::vector<TrackedFrame> found;
+  // Per object found: the other poses verified that draw the same outline (within 2 px) from
+  // elsewhere, the model's symmetry (a box turned half round): the image cannot tell them from
+  // the one reported.
+  std::vector<std::vector<Values>> twins;
+  // Candidates in ranking order, tracked or not: what was tried and why it was refused.
+  std::vector<DetectionCandidate> candidates;
+  std::vector<ImageSegment> segments;
+  std::vector<Junction> junctions;
+  DetectionStats stats;
+  // When nothing is found: why, in a sentence.
+  std::string why;
+};
+
+// Throws InputError (its location left to the caller) for a camera without a size or one of
+// another size than the image, a model without edges, or an empty image.
+Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
+                 const DetectorOptions& options = {});
+
+// What a verified frame explains of the image: its outline's samples supported beyond what
+// chance gives beside its edges (the tracker's settling compares poses by it).
+double ExplainedEvidence(const Verification& verification);
+
+}  // namespace cfuse

@@ -1,0 +1,448 @@
+#include "cfuse/track/detector.h"
+
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <array>
+#include <chrono>
+#include <cmath>
+#include <fmt/format.h>
+
+#include "cfuse/geometry/model_edges.h"
+#include "cfuse/geometry/p3p.h"
+#include "cfuse/kernel/error.h"
+
+namespace cfuse {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// px: two poses drawing every edge within this of the other's are one answer (symmetry).
+constexpr double kSameOutlinePixels = 2;
+
+double Ms(Clock::time_point from) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - from).count();
+}
+
+// A rigid component's edges and faces in its own coordinates, for the ranking, and its vertices
+// where two or more edges meet.
+struct Shape {
+  int component = -1;
+  int block = -1;
+  std::vector<Eigen::Vector3d> points;
+  std::vector<std::array<int, 2>> edges;
+  std::vector<std::vector<int>> edge_faces;
+  std::vector<Eigen::Vector3d> face_normal, face_centre;  // normal: twice the area, outward
+  std::vector<std::vector<int>> neighbours;              // per point, along edges
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+};
+
+std::vector<Shape> Shapes(const ConstraintGraph& graph) {
+  const std::vector<ModelEdge> edges = ModelEdges(graph);
+  std::vector<Shape> shapes;
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    const Component& component = graph.components[c];
+    if (!component.rigid) continue;
+    Shape s;
+    s.component = static_cast<int>(c);
+    s.block = component.block;
+    for (const FeaturePoint& p : component.points) s.points.push_back(p.position);
+    s.neighbours.resize(s.points.size());
+    for (const Face& face : component.faces) {
+      Eigen::Vector3d normal = Eigen::Vector3d::Zero(), centre = Eigen::Vector3d::Zero();
+      for (size_t k = 0; k < face.loop.size(); ++k) {
+        const Eigen::Vector3d& p = s.points[face.loop[k]];
+        normal += p.cross(s.points[face.loop[(k + 1) % face.loop.size()]]);
+        centre += p;
+      }
+      s.face_normal.push_back(normal);
+      s.face_centre.push_back(centre / static_cast<double>(std::max<size_t>(1, face.loop.size())));
+    }
+    for (const ModelEdge& e : edges) {
+      if (e.component != s.component || e.a == e.b) continue;
+      s.edges.push_back({e.a, e.b});
+      s.edge_faces.push_back(e.faces);
+      for (const auto& [from, to] : {std::pair{e.a, e.b}, std::pair{e.b, e.a}}) {
+        std::vector<int>& n = s.neighbours[from];
+        if (std::find(n.begin(), n.end(), to) == n.end()) n.push_back(to);
+      }
+    }
+    if (s.edges.empty()) continue;
+    for (const Eigen::Vector3d& p : s.points) s.centroid += p;
+    s.centroid /= static_cast<double>(s.points.size());
+    shapes.push_back(std::move(s));
+  }
+  return shapes;
+}
+
+// A scored pose of one shape.
+struct Scored {
+  Rigid3d camera_from_component;
+  int shape = -1, vertex = -1, junction = -1;
+  double evidence = 0;
+  Eigen::Vector2d centroid;  // the shape's centroid in the image
+  double depth = 0;
+};
+
+// What `shape`'s edges at `pose` explain of the image: supported samples less chance's share.
+// False when the pose puts a point too near or behind the camera or shows too little.
+bool Rank(const Shape& shape, const Rigid3d& pose, const Camera& camera,
+          const EdgeOrientations& steps, const DetectorOptions& options, double* evidence) {
+  thread_local std::vector<Eigen::Vector2d> pixels;
+  thread_local std::vector<char> front;
+  pixels.resize(shape.points.size());
+  for (size_t i = 0; i < shape.points.size(); ++i) {
+    const Eigen::Vector3d p = pose * shape.points[i];
+    if (!(p.z() >= options.min_depth)) return false;
+    pixels[i] = camera.Project(p);
+  }
+  const Eigen::Vector3d eye = pose.Inverse().translation;  // the camera centre, component frame
+  front.resize(shape.face_normal.size());
+  for (size_t f = 0; f < front.size(); ++f) {
+    front[f] = shape.face_normal[f].dot(eye - shape.face_centre[f]) > 0;
+  }
+  double supported = 0, chance = 0;
+  int samples = 0;
+  for (size_t e = 0; e < shape.edges.size(); ++e) {
+    bool visible = shape.edge_faces[e].empty();
+    for (const int f : shape.edge_faces[e]) visible = visible || front[f];
+    if (!visible) continue;
+    const Eigen::Vector2d a = pixels[shape.edges[e][0]], b = pixels[shape.edges[e][1]];
+    const Eigen::Vector2d d = b - a;
+    const double length = d.norm();
+    if (!(length > 0)) continue;
+    const int bin = EdgeOrientations::Bin(Eigen::Vector2d(-d.y(), d.x()));
+    const std::uint8_t mask = EdgeOrientations::Tolerant(bin);
+    const int n = static_cast<int>(std::ceil(length / options.sample_step));
+    for (int k = 0; k < n; ++k) {
+      const Eigen::Vector2d p = a + ((k + 0.5) / n) * d;
+      if (p.x() < 0 || p.y() < 0 || p.x() > steps.width() - 1 || p.y() > steps.height() - 1) {
+        continue;
+      }
+      ++samples;
+      chance += steps.Chance(bin);
+      supported += steps.Has(p.x(), p.y(), mask);
+    }
+  }
+  if (samples < options.min_samples) return false;
+  *evidence = supported - chance;
+  return true;
+}
+
+// The whole model placed by one component's pose, the others at their nominal place about it.
+Values Place(const ConstraintGraph& graph, int block, const Rigid3d& camera_from_component) {
+  Values values = graph.nominal;
+  const int index = graph.blocks[block].index;
+  const Rigid3d move = camera_from_component * values.poses[index].Inverse();
+  for (Rigid3d& pose : values.poses) pose = move * pose;
+  for (Eigen::Vector3d& point : values.points) point = move * point;
+  return values;
+}
+
+double AngleDegrees(const Rigid3d& a, const Rigid3d& b) {
+  return Eigen::AngleAxisd(a.rotation.inverse() * b.rotation).angle() * 180 / M_PI;
+}
+
+// The root component's pose block: the first rigid component's.
+int RootBlock(const ConstraintGraph& graph) {
+  for (const Component& c : graph.components) {
+    if (c.rigid) return c.block;
+  }
+  return -1;
+}
+
+const Rigid3d& RootPose(const ConstraintGraph& graph, const Values& values) {
+  static const Rigid3d kIdentity;
+  const int block = RootBlock(graph);
+  return block < 0 ? kIdentity : values.poses[graph.blocks[block].index];
+}
+
+// Whether two frames' predicted edges cover the same part of the image: their bounding boxes
+// share at least half of the smaller one.
+bool Overlap(const TrackedFrame& a, const TrackedFrame& b) {
+  auto box = [](const TrackedFrame& f) {
+    Eigen::AlignedBox2d out;
+    for (const PredictedEdge& e : f.predicted) {
+      out.extend(e.a);
+      out.extend(e.b);
+    }
+    return out;
+  };
+  const Eigen::AlignedBox2d ba = box(a), bb = box(b);
+  if (ba.isEmpty() || bb.isEmpty()) return false;
+  const double shared = ba.intersection(bb).isEmpty() ? 0 : ba.intersection(bb).volume();
+  return shared >= 0.5 * std::min(ba.volume(), bb.volume());
+}
+
+// The distance (px) of point p from the segment a-b.
+double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
+  const Eigen::Vector2d d = b - a;
+  const double t = d.squaredNorm() > 0 ? std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0;
+  return (a + t * d - p).norm();
+}
+
+// Whether every predicted edge of `a` lies within `tolerance` px of one of `b`'s (its ends and
+// middle): two poses of a symmetric model (a box turned half round) draw the same outline, and
+// no image can tell them apart.
+bool SameOutline(const TrackedFrame& a, const TrackedFrame& b, double tolerance) {
+  if (a.predicted.empty() || b.predicted.empty()) return false;
+  for (const PredictedEdge& e : a.predicted) {
+    for (const Eigen::Vector2d& p : {e.a, e.b, Eigen::Vector2d(0.5 * (e.a + e.b))}) {
+      double nearest = INFINITY;
+      for (const PredictedEdge& f : b.predicted) nearest = std::min(nearest, SegmentDistance(p, f.a, f.b));
+      if (nearest > tolerance) return false;
+    }
+  }
+  return true;
+}
+
+// Whether two verified frames found the same object: their root components within 1 % of the
+// depth and 5 degrees of each other.
+bool SamePlace(const ConstraintGraph& graph, const Values& a, const Values& b) {
+  const int block = RootBlock(graph);
+  if (block < 0) return true;
+  const int index = graph.blocks[block].index;
+  const Rigid3d& pa = a.poses[index];
+  const Rigid3d& pb = b.poses[index];
+  return (pa.translation - pb.translation).norm() <= 0.01 * pa.translation.norm() + 1e-3 &&
+         AngleDegrees(pa, pb) <= 5;
+}
+
+// Why a verified frame does not show the object plainly enough to be found with no prior, or "".
+std::string Plainly(const Verification& v, const DetectorOptions& options) {
+  if (v.share - v.chance < options.min_margin) {
+    return fmt::format(
+        "{:.0f} % of the outline supported against chance's {:.0f} % beside it: too little "
+        "above chance for a pose found with no prior ({:.0f} points needed)",
+        100 * v.share, 100 * v.chance, 100 * options.min_margin);
+  }
+  if (v.dominant_share < options.min_dominant) {
+    return fmt::format(
+        "the strongest step lies on the edge at {:.0f} % of the outline, {:.0f} % needed for a "
+        "pose found with no prior",
+        100 * v.dominant_share, 100 * options.min_dominant);
+  }
+  return "";
+}
+
+TrackerOptions WithoutSettling(TrackerOptions options) {
+  options.settle_places = 0;
+  options.settle_depths = 0;
+  options.settle_joint_values = 0;
+  options.max_doublings = std::min(options.max_doublings, 1);
+  return options;
+}
+
+}  // namespace
+
+double ExplainedEvidence(const Verification& v) { return v.supported - v.chance * v.samples; }
+
+Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
+                 const DetectorOptions& options) {
+  if (image.data == nullptr || image.width <= 0 || image.height <= 0) {
+    throw InputError(SourceLocation(), "the image is empty");
+  }
+  if (camera.width != image.width || camera.height != image.height) {
+    throw InputError(SourceLocation(),
+                     fmt::format("the image is {} x {}, the camera's {} x {}", image.width,
+                                 image.height, camera.width, camera.height));
+  }
+  const std::vector<Shape> shapes = Shapes(graph);
+  if (shapes.empty()) {
+    throw InputError(SourceLocation(), fmt::format("model '{}' has no edges to find in an image",
+                                                   graph.name));
+  }
+  Detection out;
+  auto start = Clock::now();
+  out.segments = DetectSegments(image, options.segments);
+  out.junctions = FindJunctions(out.segments, options.junctions);
+  out.stats.segments = static_cast<int>(out.segments.size());
+  out.stats.junctions = static_cast<int>(out.junctions.size());
+  out.stats.segment_ms = Ms(start);
+
+  start = Clock::now();
+  const EdgeOrientations steps(image, options.orientations);
+  out.stats.orientation_ms = Ms(start);
+
+  // Every junction against every vertex, both ways round, each P3P pose ranked.
+  start = Clock::now();
+  std::vector<Scored> scored;
+  const int junctions =
+      std::min<int>(static_cast<int>(out.junctions.size()), options.max_junctions);
+  out.stats.junctions_cut = junctions < static_cast<int>(out.junctions.size());
+  for (const Shape& s : shapes) {
+    for (const auto& n : s.neighbours) out.stats.vertices += n.size() >= 2;
+  }
+  for (int j = 0; j < junctions && !out.stats.poses_cut; ++j) {
+    const Junction& junction = out.junctions[j];
+    const std::array<Eigen::Vector2d, 3> image_points = {junction.far[0], junction.corner,
+                                                         junction.far[1]};
+    for (size_t si = 0; si < shapes.size() && !out.stats.poses_cut; ++si) {
+      const Shape& s = shapes[si];
+      for (size_t v = 0; v < s.points.size() && !out.stats.poses_cut; ++v) {
+        const std::vector<int>& n = s.neighbours[v];
+        for (size_t i = 0; i < n.size(); ++i) {
+          for (size_t k = 0; k < n.size(); ++k) {
+            if (i == k) continue;
+            const std::array<Eigen::Vector3d, 3> object = {s.points[n[i]], s.points[v],
+                                                           s.points[n[k]]};
+            for (const Rigid3d& pose : PosesFromThreeProjections(camera, object, image_points)) {
+              if (++out.stats.poses > options.max_poses) {
+                out.stats.poses_cut = true;
+                break;
+              }
+              double evidence = 0;
+              if (!Rank(s, pose, camera, steps, options, &evidence) || !(evidence > 0)) continue;
+              Scored p;
+              p.camera_from_component = pose;
+              p.shape = static_cast<int>(si);
+              p.vertex = static_cast<int>(v);
+              p.junction = j;
+              p.evidence = evidence;
+              const Eigen::Vector3d centre = pose * s.centroid;
+              p.centroid = camera.Project(centre);
+              p.depth = centre.z();
+              scored.push_back(p);
+            }
+          }
+        }
+      }
+    }
+  }
+  out.stats.poses = std::min(out.stats.poses, options.max_poses);
+  std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) {
+    if (a.evidence != b.evidence) return a.evidence > b.evidence;
+    if (a.junction != b.junction) return a.junction < b.junction;
+    if (a.shape != b.shape) return a.shape < b.shape;
+    return a.vertex < b.vertex;
+  });
+  // The best, spread apart: a pose near one kept is the same hypothesis again.
+  std::vector<const Scored*> kept;
+  for (const Scored& p : scored) {
+    if (static_cast<int>(kept.size()) >= options.max_candidates) break;
+    bool near = false;
+    for (const Scored* q : kept) {
+      near = near || (q->shape == p.shape &&
+                       (q->centroid - p.centroid).norm() < options.spread_pixels &&
+                       std::abs(q->depth - p.depth) < 0.1 * p.depth &&
+                       AngleDegrees(q->camera_from_component, p.camera_from_component) <
+                           options.spread_degrees);
+    }
+    if (!near) kept.push_back(&p);
+  }
+  out.stats.ranking_ms = Ms(start);
+
+  // Each candidate tracked on this image; the verified ones, best first, settled.
+  start = Clock::now();
+  const TrackerOptions quick = WithoutSettling(options.tracker);
+  std::vector<TrackedFrame> verified;
+  for (const Scored* p : kept) {
+    DetectionCandidate c;
+    c.component = shapes[p->shape].component;
+    c.vertex = p->vertex;
+    c.junction = p->junction;
+    c.evidence = p->evidence;
+    c.values = Place(graph, shapes[p->shape].block, p->camera_from_component);
+    Tracker tracker(graph, camera, c.values, quick);
+    c.frame = tracker.Track(image);
+    c.tracked = true;
+    ++out.stats.candidates;
+    if (c.frame.verified) verified.push_back(c.frame);
+    out.candidates.push_back(std::move(c));
+  }
+  std::stable_sort(verified.begin(), verified.end(),
+                   [](const TrackedFrame& a, const TrackedFrame& b) {
+                     return ExplainedEvidence(a.verification) > ExplainedEvidence(b.verification);
+                   });
+  std::vector<const TrackedFrame*> distinct;
+  std::vector<std::vector<Values>> twins;  // per distinct pose: others drawing its outline
+  for (const TrackedFrame& f : verified) {
+    bool same = false;
+    for (size_t g = 0; g < distinct.size() && !same; ++g) {
+      if (SamePlace(graph, f.estimate.mean, distinct[g]->estimate.mean)) {
+        same = true;
+      } else if (SameOutline(f, *distinct[g], kSameOutlinePixels) &&
+                 SameOutline(*distinct[g], f, kSameOutlinePixels)) {
+        same = true;
+        bool known = false;
+        for (const Values& t : twins[g]) known = known || SamePlace(graph, f.estimate.mean, t);
+        if (!known) twins[g].push_back(f.estimate.mean);
+      }
+    }
+    if (!same) {
+      distinct.push_back(&f);
+      twins.emplace_back();
+    }
+  }
+  // A pose is the object only when no other pose over the same part of the image explains
+  // about as much of it (TrackerOptions::decisive_share, as the settling judges places): a
+  // model of repeated parts and parallel edges verifies a pose slid by one of them too.
+  std::string settled_why;
+  for (size_t i = 0; i < distinct.size(); ++i) {
+    if (static_cast<int>(out.found.size()) >= options.max_results) break;
+    const TrackedFrame& f = *distinct[i];
+    bool taken = false;  // by an object found already
+    for (const TrackedFrame& g : out.found) taken = taken || Overlap(g, f);
+    if (taken) continue;
+    const double evidence = ExplainedEvidence(f.verification);
+    const TrackedFrame* rival = nullptr;
+    for (size_t k = 0; k < distinct.size() && !rival; ++k) {
+      if (k != i && Overlap(*distinct[k], f) &&
+          options.tracker.decisive_share * ExplainedEvidence(distinct[k]->verification) >
+              evidence) {
+        rival = distinct[k];
+      }
+    }
+    if (rival || (i > 0 && out.found.empty())) {
+      // The best pose ambiguous: no lesser one can be the object instead.
+      if (i > 0 && out.found.empty()) break;
+      if (settled_why.empty()) {
+        settled_why = fmt::format(
+            "ambiguous: two poses {:.0f} mm apart explain the image about as well ({:.0f} and "
+            "{:.0f} samples beyond chance)",
+            1000 * (RootPose(graph, f.estimate.mean).translation -
+                    RootPose(graph, rival->estimate.mean).translation)
+                       .norm(),
+            evidence, ExplainedEvidence(rival->verification));
+      }
+      continue;
+    }
+    std::string plain = Plainly(f.verification, options);
+    if (!plain.empty()) {
+      if (settled_why.empty()) settled_why = plain;
+      if (out.found.empty()) break;
+      continue;
+    }
+    // Settled as a tracker settles its first frame: tracked again from places about it.
+    Tracker tracker(graph, camera, f.estimate.mean, options.tracker);
+    TrackedFrame settled = tracker.Track(image);
+    plain = settled.verified ? Plainly(settled.verification, options) : "";
+    if (settled.verified && plain.empty()) {
+      out.found.push_back(std::move(settled));
+      out.twins.push_back(twins[i]);
+    } else if (settled_why.empty()) {
+      settled_why = "refused when settled: " + (plain.empty() ? settled.verification.why : plain);
+    }
+  }
+  out.stats.tracking_ms = Ms(start);
+
+  if (out.found.empty()) {
+    if (out.junctions.empty()) {
+      out.why = "no junction of two segments in the image to seed a pose from";
+    } else if (kept.empty()) {
+      out.why = fmt::format(
+          "no pose from {} junctions and {} vertices explains more of the image than chance",
+          junctions, out.stats.vertices);
+    } else if (!settled_why.empty()) {
+      out.why = settled_why;
+    } else {
+      const DetectionCandidate& best = out.candidates.front();
+      out.why = fmt::format("none of {} candidates verified; the best ranked was refused: {}",
+                            out.candidates.size(),
+                            best.frame.verification.why.empty() ? "no matches"
+                                                                : best.frame.verification.why);
+    }
+  }
+  return out;
+}
+
+}  // namespace cfuse

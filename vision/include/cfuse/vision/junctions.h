@@ -1,0 +1,42 @@
+// Junctions: where two detected segments end at a common corner, the image of a model's vertex
+// where two of its edges meet (an L-junction). They seed the detection of an object with no pose
+// given: a junction and the far ends of its two arms are three image points to match with a
+// vertex and its two neighbours along the model's edges.
+//
+// Two segments form a junction when their lines cross at a point `max_gap` px or less from one
+// end of each, at an angle of at least `min_angle`, and the crossing lies beyond or near those
+// ends rather than well inside either segment (a segment ending on the middle of another is a
+// T-junction: one edge passing behind another, no vertex).
+//
+// Coordinates: pixels, as for segments.h.
+#pragma once
+
+#include <Eigen/Core>
+#include <vector>
+
+#include "cfuse/vision/segments.h"
+
+namespace cfuse {
+
+struct JunctionOptions {
+  double max_gap = 6;           // px from the crossing to each segment's end
+  double min_angle = 0.35;      // rad between the two segments (20 degrees)
+  double min_arm_length = 12;   // px: shorter segments make no arm
+};
+
+struct Junction {
+  Eigen::Vector2d corner;  // where the two lines cross
+  // Per arm: the segment (index into the detected segments), the end of it at the corner (0: a,
+  // 1: b), its far end, and the unit direction from the corner towards that far end.
+  int segment[2] = {-1, -1};
+  int end[2] = {0, 0};
+  Eigen::Vector2d far[2];
+  Eigen::Vector2d direction[2];
+  double strength = 0;  // the lesser of the two segments' contrasts times the shorter arm, px
+};
+
+// Every junction of `segments`, strongest first.
+std::vector<Junction> FindJunctions(const std::vector<ImageSegment>& segments,
+                                    const JunctionOptions& options = {});
+
+}  // namespace cfuse
