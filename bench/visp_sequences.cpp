@@ -419,7 +419,11 @@ int main(int argc, char** argv) {
   std::stringstream list(names);
   for (std::string n; std::getline(list, n, ',');) sequences.push_back(n);
 
-  fmt::print(
+  if (detect) {
+    fmt::print("| sequence | model | found right | found wrong | not found | error median (mm) | "
+               "ms a frame, median | split (segments and junctions, orientations, ranking, "
+               "tracking) | junctions | poses ranked |\n|---|---|---|---|---|---|---|---|---|---|\n");
+  } else fmt::print(
       "| sequence | k | tracker | frames verified | verified wrong | error median / worst (mm) | "
       "from ViSP's edges, median (mm) | ms a frame | after the first | split (evidence, "
       "prediction, search, estimation, verification) |\n|---|---|---|---|---|---|---|---|---|---|\n");
