@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "cfuse/dsl/model_loader.h"
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/visp.h"
 #include "cfuse/kernel/error.h"
@@ -118,6 +119,29 @@ TEST_CASE("detector: the rigid box found in renders at several poses", "[tracker
     found += !d.found.empty();
   }
   CHECK(found >= 3);
+}
+
+TEST_CASE("detector: the hinged box found with its lid where it stands", "[tracker]") {
+  // The candidates try the lid across its range (DetectorOptions::joint_values); found at the
+  // nominal angle alone, the lid's edges would find nothing and refuse every candidate.
+  const ConstraintGraph graph = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  DetectorOptions nominal;
+  nominal.joint_values = 0;
+  int found = 0, found_nominal = 0;
+  for (unsigned seed = 1; seed <= 4; ++seed) {
+    const std::vector<SequenceFrame> frames =
+        RenderSequence(graph, StandardCamera(), StandardSequence(graph, "steady", 1, seed));
+    const GrayView view = testing::View(frames[0].rendering);
+    const Detection d = Detect(graph, StandardCamera(), view);
+    CAPTURE(seed, d.why);
+    for (const TrackedFrame& f : d.found) {
+      CHECK(PointDistance(graph, StandardCamera(), f.estimate.mean, frames[0].truth) < 3);
+    }
+    found += !d.found.empty();
+    found_nominal += !Detect(graph, StandardCamera(), view, nominal).found.empty();
+  }
+  CHECK(found == 4);
+  CHECK(found_nominal < found);  // what the joints' values are for
 }
 
 TEST_CASE("detector: an image without the object finds nothing and says why", "[tracker]") {

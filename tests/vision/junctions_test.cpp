@@ -56,6 +56,43 @@ TEST_CASE("junctions: a T, a shallow angle, a wide gap or a short arm make no ju
   CHECK(FindJunctions({Segment(40, 50, 100, 50), Segment(100, 50, 100, 58)}).empty());
 }
 
+TEST_CASE("junctions: two lines crossing make none, though their pieces end at the crossing",
+          "[vision]") {
+  // A line detector splits crossing lines at the crossing: four pieces ending at (100, 50), each
+  // pair at right angles, but every arm goes on through the corner.
+  const std::vector<ImageSegment> cross = {Segment(40, 50, 99, 50), Segment(101, 50, 160, 50),
+                                           Segment(100, 10, 100, 49), Segment(100, 51, 100, 90)};
+  CHECK(FindJunctions(cross).empty());
+  // Without the pieces beyond the crossing, an L.
+  CHECK(FindJunctions({cross[0], cross[2]}).size() == 1);
+}
+
+TEST_CASE("junctions: an arm ends at its segment's far end and at corners further along it",
+          "[vision]") {
+  // An L at (100, 50) whose horizontal arm broke at x = 70; the edge goes on to another L at
+  // (20, 50), whose horizontal arm points back along it.
+  const std::vector<ImageSegment> segments = {
+      Segment(70, 50, 99, 50), Segment(100, 52, 100, 90),  // the L at (100, 50)
+      Segment(22, 50, 50, 50), Segment(20, 48, 20, 10),    // the L at (20, 50)
+      Segment(60, 80, 60, 120), Segment(62, 80, 90, 80)};  // an L at (60, 80), off the line
+  const std::vector<Junction> j = FindJunctions(segments);
+  REQUIRE(j.size() == 3);
+  int at = -1;
+  for (size_t k = 0; k < j.size(); ++k) {
+    if ((j[k].corner - Eigen::Vector2d(100, 50)).norm() < 1e-6) at = static_cast<int>(k);
+  }
+  REQUIRE(at >= 0);
+  const int arm = j[at].segment[0] == 0 ? 0 : 1;  // the horizontal arm
+  const std::vector<Eigen::Vector2d> ends = ArmEnds(j, at, arm);
+  REQUIRE(ends.size() == 2);
+  CHECK((ends[0] - Eigen::Vector2d(70, 50)).norm() < 1e-6);  // the segment's far end
+  CHECK((ends[1] - Eigen::Vector2d(20, 50)).norm() < 1e-6);  // the next corner along the line
+  // The vertical arm has no corner along it.
+  CHECK(ArmEnds(j, at, 1 - arm).size() == 1);
+  // At most one end when asked so.
+  CHECK(ArmEnds(j, at, arm, {}, 1).size() == 1);
+}
+
 TEST_CASE("junctions: the corners of a rectangle, strongest first", "[vision]") {
   // A rectangle's four sides, each of another contrast: four junctions, ordered by the lesser
   // contrast times the shorter arm.

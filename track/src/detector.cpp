@@ -7,6 +7,8 @@
 #include <cmath>
 #include <fmt/format.h>
 
+#include "cfuse/constraints/evaluate.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/geometry/model_edges.h"
 #include "cfuse/geometry/p3p.h"
 #include "cfuse/kernel/error.h"
@@ -138,6 +140,102 @@ Values Place(const ConstraintGraph& graph, int block, const Rigid3d& camera_from
   return values;
 }
 
+// What every shape's edges at `values` explain (Rank over the model; shapes showing too little
+// add nothing). -infinity when a point lies too near or behind the camera.
+double RankModel(const ConstraintGraph& graph, const std::vector<Shape>& shapes,
+                 const Values& values, const Camera& camera, const EdgeOrientations& steps,
+                 const DetectorOptions& options) {
+  double total = 0;
+  DetectorOptions any = options;
+  any.min_samples = 0;
+  for (const Shape& s : shapes) {
+    const Rigid3d& pose = values.poses[graph.blocks[s.block].index];
+    double evidence = 0;
+    if (!Rank(s, pose, camera, steps, any, &evidence)) return -INFINITY;
+    total += evidence;
+  }
+  return total;
+}
+
+// `values` with joint `joint` at `q`, the side of it away from component `fixed` moved with it.
+Values WithJoint(const ConstraintGraph& graph, const Values& values, const Joint& joint, double q,
+                 int fixed) {
+  // The components on the child's side of the joint (the joint's own link cut).
+  std::vector<bool> child_side(graph.components.size(), false);
+  child_side[joint.child] = true;
+  for (bool grew = true; grew;) {
+    grew = false;
+    for (const Joint& j : graph.joints) {
+      if (&j == &joint) continue;
+      for (const auto& [from, to] : {std::pair{j.parent, j.child}, std::pair{j.child, j.parent}}) {
+        if (child_side[from] && !child_side[to] && to != joint.parent) child_side[to] = grew = true;
+      }
+    }
+  }
+  const auto pose_of = [&](int c) -> const Rigid3d& {
+    return values.poses[graph.blocks[graph.components[c].block].index];
+  };
+  const Rigid3d motion = JointMotion(joint.type, joint.axis, q);
+  const bool move_child = !child_side[fixed];
+  Rigid3d delta;
+  if (move_child) {
+    const Rigid3d placed =
+        pose_of(joint.parent) * joint.parent_from_joint * motion * joint.child_from_joint.Inverse();
+    delta = placed * pose_of(joint.child).Inverse();
+  } else {
+    const Rigid3d placed = pose_of(joint.child) * joint.child_from_joint * motion.Inverse() *
+                           joint.parent_from_joint.Inverse();
+    delta = placed * pose_of(joint.parent).Inverse();
+  }
+  Values v = values;
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (child_side[c] != move_child) continue;
+    const Block& b = graph.blocks[graph.components[c].block];
+    if (b.kind == BlockKind::kPose) {
+      v.poses[b.index] = delta * v.poses[b.index];
+    } else {
+      v.points[b.index] = delta * v.points[b.index];
+    }
+  }
+  MatchSlacks(graph, &v);
+  return v;
+}
+
+// The configuration a candidate starts from: the seeded component where P3P put it, each joint
+// between rigid parts (one at a time) at `values` across its range (or round the circle), the
+// one whose edges explain the most of the image kept.
+Values BestJoints(const ConstraintGraph& graph, const std::vector<Shape>& shapes,
+                  const Values& nominal, int seeded, const Camera& camera,
+                  const EdgeOrientations& steps, const DetectorOptions& options) {
+  Values best = nominal;
+  double best_rank = RankModel(graph, shapes, nominal, camera, steps, options);
+  const int n = options.joint_values;
+  for (const Joint& joint : graph.joints) {
+    if (!HasJointVariable(joint.type) || joint.mimic || !graph.components[joint.parent].rigid ||
+        !graph.components[joint.child].rigid) {
+      continue;
+    }
+    std::vector<double> qs;
+    if (joint.limits) {
+      for (int k = 0; k < n; ++k) {
+        qs.push_back(joint.limits->first +
+                     (k + 0.5) * (joint.limits->second - joint.limits->first) / n);
+      }
+    } else if (!ModelOf(joint.type).VariableIsLength()) {
+      for (int k = 0; k < n; ++k) qs.push_back(2 * M_PI * k / n);
+    }
+    for (const double q : qs) {
+      Values v = WithJoint(graph, nominal, joint, q, seeded);
+      const double rank = RankModel(graph, shapes, v, camera, steps, options);
+      if (rank > best_rank) {
+        best_rank = rank;
+        best = std::move(v);
+      }
+    }
+  }
+  return best;
+}
+
 double AngleDegrees(const Rigid3d& a, const Rigid3d& b) {
   return Eigen::AngleAxisd(a.rotation.inverse() * b.rotation).angle() * 180 / M_PI;
 }
@@ -156,43 +254,44 @@ const Rigid3d& RootPose(const ConstraintGraph& graph, const Values& values) {
   return block < 0 ? kIdentity : values.poses[graph.blocks[block].index];
 }
 
-// Whether two frames' predicted edges cover the same part of the image: their bounding boxes
-// share at least half of the smaller one.
-bool Overlap(const TrackedFrame& a, const TrackedFrame& b) {
-  auto box = [](const TrackedFrame& f) {
-    Eigen::AlignedBox2d out;
-    for (const PredictedEdge& e : f.predicted) {
-      out.extend(e.a);
-      out.extend(e.b);
-    }
-    return out;
-  };
-  const Eigen::AlignedBox2d ba = box(a), bb = box(b);
-  if (ba.isEmpty() || bb.isEmpty()) return false;
-  const double shared = ba.intersection(bb).isEmpty() ? 0 : ba.intersection(bb).volume();
-  return shared >= 0.5 * std::min(ba.volume(), bb.volume());
-}
-
-// The distance (px) of point p from the segment a-b.
-double SegmentDistance(const Eigen::Vector2d& p, const Eigen::Vector2d& a, const Eigen::Vector2d& b) {
-  const Eigen::Vector2d d = b - a;
-  const double t = d.squaredNorm() > 0 ? std::clamp((p - a).dot(d) / d.squaredNorm(), 0.0, 1.0) : 0;
-  return (a + t * d - p).norm();
-}
-
-// Whether every predicted edge of `a` lies within `tolerance` px of one of `b`'s (its ends and
-// middle): two poses of a symmetric model (a box turned half round) draw the same outline, and
-// no image can tell them apart.
-bool SameOutline(const TrackedFrame& a, const TrackedFrame& b, double tolerance) {
-  if (a.predicted.empty() || b.predicted.empty()) return false;
-  for (const PredictedEdge& e : a.predicted) {
-    for (const Eigen::Vector2d& p : {e.a, e.b, Eigen::Vector2d(0.5 * (e.a + e.b))}) {
-      double nearest = INFINITY;
-      for (const PredictedEdge& f : b.predicted) nearest = std::min(nearest, SegmentDistance(p, f.a, f.b));
-      if (nearest > tolerance) return false;
-    }
+// Where `values` projects every rigid component's points.
+std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const Camera& camera,
+                                            const Values& values) {
+  std::vector<Eigen::Vector2d> out;
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    const Rigid3d& pose = values.poses[graph.blocks[c.block].index];
+    for (const FeaturePoint& p : c.points) out.push_back(camera.Project<double>(pose * p.position));
   }
-  return true;
+  return out;
+}
+
+// Whether every point of `a` lies within `tolerance` px of one of `b`'s and the other way round:
+// two poses of a symmetric model (a box turned half round) draw the same outline, and no image
+// can tell them apart.
+bool SameOutline(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b,
+                 double tolerance) {
+  const auto covered = [tolerance](const std::vector<Eigen::Vector2d>& from,
+                                   const std::vector<Eigen::Vector2d>& to) {
+    for (const Eigen::Vector2d& p : from) {
+      double nearest = INFINITY;
+      for (const Eigen::Vector2d& q : to) nearest = std::min(nearest, (p - q).norm());
+      if (!(nearest <= tolerance)) return false;
+    }
+    return true;
+  };
+  return !a.empty() && covered(a, b) && covered(b, a);
+}
+
+// Whether two point sets cover the same part of the image: their bounding boxes share at least
+// half of the smaller one.
+bool Overlap(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b) {
+  Eigen::AlignedBox2d ba, bb;
+  for (const Eigen::Vector2d& p : a) ba.extend(p);
+  for (const Eigen::Vector2d& p : b) bb.extend(p);
+  if (ba.isEmpty() || bb.isEmpty()) return false;
+  const Eigen::AlignedBox2d shared = ba.intersection(bb);
+  return !shared.isEmpty() && shared.volume() >= 0.5 * std::min(ba.volume(), bb.volume());
 }
 
 // Whether two verified frames found the same object: their root components within 1 % of the
@@ -208,7 +307,12 @@ bool SamePlace(const ConstraintGraph& graph, const Values& a, const Values& b) {
 }
 
 // Why a verified frame does not show the object plainly enough to be found with no prior, or "".
-std::string Plainly(const Verification& v, const DetectorOptions& options) {
+std::string Plainly(const TrackedFrame& f, const DetectorOptions& options) {
+  const Verification& v = f.verification;
+  if (f.matches < options.min_matches) {
+    return fmt::format("{} edges matched, {} needed for a pose found with no prior", f.matches,
+                       options.min_matches);
+  }
   if (v.share - v.chance < options.min_margin) {
     return fmt::format(
         "{:.0f} % of the outline supported against chance's {:.0f} % beside it: too little "
@@ -272,10 +376,16 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
   for (const Shape& s : shapes) {
     for (const auto& n : s.neighbours) out.stats.vertices += n.size() >= 2;
   }
+  const std::vector<Junction> seeds(out.junctions.begin(), out.junctions.begin() + junctions);
   for (int j = 0; j < junctions && !out.stats.poses_cut; ++j) {
     const Junction& junction = out.junctions[j];
-    const std::array<Eigen::Vector2d, 3> image_points = {junction.far[0], junction.corner,
-                                                         junction.far[1]};
+    const std::vector<Eigen::Vector2d> ends0 =
+        ArmEnds(seeds, j, 0, options.junctions, options.max_arm_ends);
+    const std::vector<Eigen::Vector2d> ends1 =
+        ArmEnds(seeds, j, 1, options.junctions, options.max_arm_ends);
+    for (size_t e = 0; e < ends0.size() * ends1.size() && !out.stats.poses_cut; ++e) {
+    const std::array<Eigen::Vector2d, 3> image_points = {ends0[e % ends0.size()], junction.corner,
+                                                         ends1[e / ends0.size()]};
     for (size_t si = 0; si < shapes.size() && !out.stats.poses_cut; ++si) {
       const Shape& s = shapes[si];
       for (size_t v = 0; v < s.points.size() && !out.stats.poses_cut; ++v) {
@@ -307,6 +417,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
         }
       }
     }
+    }
   }
   out.stats.poses = std::min(out.stats.poses, options.max_poses);
   std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) {
@@ -315,19 +426,33 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     if (a.shape != b.shape) return a.shape < b.shape;
     return a.vertex < b.vertex;
   });
-  // The best, spread apart: a pose near one kept is the same hypothesis again.
+  // The best, spread apart: a pose whose outline lies near one kept is the same hypothesis again.
   std::vector<const Scored*> kept;
+  std::vector<std::vector<Eigen::Vector2d>> kept_points;
   for (const Scored& p : scored) {
     if (static_cast<int>(kept.size()) >= options.max_candidates) break;
-    bool near = false;
-    for (const Scored* q : kept) {
-      near = near || (q->shape == p.shape &&
-                       (q->centroid - p.centroid).norm() < options.spread_pixels &&
-                       std::abs(q->depth - p.depth) < 0.1 * p.depth &&
-                       AngleDegrees(q->camera_from_component, p.camera_from_component) <
-                           options.spread_degrees);
+    std::vector<Eigen::Vector2d> points;
+    for (const Eigen::Vector3d& x : shapes[p.shape].points) {
+      points.push_back(camera.Project<double>(p.camera_from_component * x));
     }
-    if (!near) kept.push_back(&p);
+    bool near = false;
+    for (size_t k = 0; k < kept.size() && !near; ++k) {
+      if (kept[k]->shape != p.shape ||
+          (kept[k]->centroid - p.centroid).norm() >= options.spread_pixels) {
+        continue;
+      }
+      double farthest = 0;
+      for (const Eigen::Vector2d& a : points) {
+        double nearest = INFINITY;
+        for (const Eigen::Vector2d& b : kept_points[k]) nearest = std::min(nearest, (a - b).norm());
+        farthest = std::max(farthest, nearest);
+      }
+      near = farthest < options.spread_pixels;
+    }
+    if (!near) {
+      kept.push_back(&p);
+      kept_points.push_back(std::move(points));
+    }
   }
   out.stats.ranking_ms = Ms(start);
 
@@ -341,7 +466,9 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     c.vertex = p->vertex;
     c.junction = p->junction;
     c.evidence = p->evidence;
-    c.values = Place(graph, shapes[p->shape].block, p->camera_from_component);
+    c.values = BestJoints(graph, shapes,
+                          Place(graph, shapes[p->shape].block, p->camera_from_component),
+                          c.component, camera, steps, options);
     Tracker tracker(graph, camera, c.values, quick);
     c.frame = tracker.Track(image);
     c.tracked = true;
@@ -355,13 +482,14 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
                    });
   std::vector<const TrackedFrame*> distinct;
   std::vector<std::vector<Values>> twins;  // per distinct pose: others drawing its outline
+  std::vector<std::vector<Eigen::Vector2d>> outline;  // per distinct pose: its points' images
   for (const TrackedFrame& f : verified) {
+    const std::vector<Eigen::Vector2d> points = ProjectedPoints(graph, camera, f.estimate.mean);
     bool same = false;
     for (size_t g = 0; g < distinct.size() && !same; ++g) {
       if (SamePlace(graph, f.estimate.mean, distinct[g]->estimate.mean)) {
         same = true;
-      } else if (SameOutline(f, *distinct[g], kSameOutlinePixels) &&
-                 SameOutline(*distinct[g], f, kSameOutlinePixels)) {
+      } else if (SameOutline(points, outline[g], kSameOutlinePixels)) {
         same = true;
         bool known = false;
         for (const Values& t : twins[g]) known = known || SamePlace(graph, f.estimate.mean, t);
@@ -371,6 +499,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     if (!same) {
       distinct.push_back(&f);
       twins.emplace_back();
+      outline.push_back(points);
     }
   }
   // A pose is the object only when no other pose over the same part of the image explains
@@ -381,12 +510,15 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     if (static_cast<int>(out.found.size()) >= options.max_results) break;
     const TrackedFrame& f = *distinct[i];
     bool taken = false;  // by an object found already
-    for (const TrackedFrame& g : out.found) taken = taken || Overlap(g, f);
+    for (const TrackedFrame& g : out.found) {
+      taken = taken || Overlap(ProjectedPoints(graph, camera, g.estimate.mean), outline[i]);
+    }
     if (taken) continue;
     const double evidence = ExplainedEvidence(f.verification);
     const TrackedFrame* rival = nullptr;
     for (size_t k = 0; k < distinct.size() && !rival; ++k) {
-      if (k != i && Overlap(*distinct[k], f) &&
+      if (k != i && Overlap(outline[k], outline[i]) &&
+          Plainly(*distinct[k], options).empty() &&
           options.tracker.decisive_share * ExplainedEvidence(distinct[k]->verification) >
               evidence) {
         rival = distinct[k];
@@ -406,7 +538,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
       }
       continue;
     }
-    std::string plain = Plainly(f.verification, options);
+    std::string plain = Plainly(f, options);
     if (!plain.empty()) {
       if (settled_why.empty()) settled_why = plain;
       if (out.found.empty()) break;
@@ -415,7 +547,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     // Settled as a tracker settles its first frame: tracked again from places about it.
     Tracker tracker(graph, camera, f.estimate.mean, options.tracker);
     TrackedFrame settled = tracker.Track(image);
-    plain = settled.verified ? Plainly(settled.verification, options) : "";
+    plain = settled.verified ? Plainly(settled, options) : "";
     if (settled.verified && plain.empty()) {
       out.found.push_back(std::move(settled));
       out.twins.push_back(twins[i]);

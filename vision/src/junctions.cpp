@@ -24,6 +24,38 @@ bool Crossing(const Eigen::Vector2d& p1, const Eigen::Vector2d& d1, const Eigen:
   return true;
 }
 
+// Whether a segment other than `arm` and `other` ends within `gap` of `corner`, runs within 5
+// degrees of `arm`'s direction, lies within 2 px of the corner along its line, and leaves the
+// corner away from `away` (the arm's direction from the corner).
+template <typename Grid, typename Key>
+bool PassesThrough(const std::vector<ImageSegment>& segments,
+                   const std::vector<Eigen::Vector2d>& direction, const Grid& grid, const Key& key,
+                   double cell, const Eigen::Vector2d& corner, int arm, int other,
+                   const Eigen::Vector2d& away, double gap) {
+  const double max_sine = std::sin(5 * M_PI / 180);
+  const long cx = std::lround(std::floor(corner.x() / cell));
+  const long cy = std::lround(std::floor(corner.y() / cell));
+  for (long dx = -1; dx <= 1; ++dx) {
+    for (long dy = -1; dy <= 1; ++dy) {
+      const auto found = grid.find(key(cx + dx, cy + dy));
+      if (found == grid.end()) continue;
+      for (const int e : found->second) {
+        const int k = e / 2, end = e % 2;
+        if (k == arm || k == other) continue;
+        const Eigen::Vector2d p = End(segments[k], end);
+        if ((p - corner).norm() > gap) continue;
+        const Eigen::Vector2d& d = direction[k];
+        if (std::abs(d.x() * away.y() - d.y() * away.x()) > max_sine) continue;
+        // The corner on the segment's line, and the segment leaving it the other way.
+        const Eigen::Vector2d r = corner - p;
+        if (std::abs(r.x() * d.y() - r.y() * d.x()) > 2) continue;
+        if ((End(segments[k], 1 - end) - corner).dot(away) < 0) return true;
+      }
+    }
+  }
+  return false;
+}
+
 }  // namespace
 
 std::vector<Junction> FindJunctions(const std::vector<ImageSegment>& segments,
@@ -85,6 +117,14 @@ std::vector<Junction> FindJunctions(const std::vector<ImageSegment>& segments,
               junction.direction[a] = arm.normalized();
             }
             if (!arms) continue;
+            // An arm that goes on through the corner (a collinear segment starting there on the
+            // other side) is a line crossing another, or passing behind it: no vertex.
+            bool through = false;
+            for (int a = 0; a < 2 && !through; ++a) {
+              through = PassesThrough(segments, direction, grid, key, cell, x, seg[a], seg[1 - a],
+                                      junction.direction[a], gap);
+            }
+            if (through) continue;
             junction.strength =
                 std::min(segments[i].strength, segments[j].strength) *
                 std::min((junction.far[0] - x).norm(), (junction.far[1] - x).norm());
@@ -100,6 +140,36 @@ std::vector<Junction> FindJunctions(const std::vector<ImageSegment>& segments,
     if (a.corner.x() != b.corner.x()) return a.corner.x() < b.corner.x();
     return a.corner.y() < b.corner.y();
   });
+  return out;
+}
+
+std::vector<Eigen::Vector2d> ArmEnds(const std::vector<Junction>& junctions, int j, int arm,
+                                     const JunctionOptions& options, int max_ends) {
+  const Junction& from = junctions[j];
+  const Eigen::Vector2d& c = from.corner;
+  const Eigen::Vector2d& e = from.direction[arm];
+  const double back = std::cos(0.5 * options.min_angle);
+  std::vector<std::pair<double, Eigen::Vector2d>> corners;  // by distance along the arm
+  for (size_t k = 0; k < junctions.size(); ++k) {
+    if (static_cast<int>(k) == j) continue;
+    const Eigen::Vector2d v = junctions[k].corner - c;
+    const double along = v.dot(e);
+    const double across = std::abs(v.x() * e.y() - v.y() * e.x());
+    if (along < options.min_arm_length || across > options.max_gap) continue;
+    if (junctions[k].direction[0].dot(e) > -back && junctions[k].direction[1].dot(e) > -back) {
+      continue;
+    }
+    corners.emplace_back(along, junctions[k].corner);
+  }
+  std::sort(corners.begin(), corners.end(),
+            [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<Eigen::Vector2d> out = {from.far[arm]};
+  for (const auto& [along, p] : corners) {
+    if (static_cast<int>(out.size()) >= max_ends) break;
+    bool known = false;  // the same point twice (two junctions at one corner)
+    for (const Eigen::Vector2d& q : out) known = known || (q - p).norm() < 2;
+    if (!known) out.push_back(p);
+  }
   return out;
 }
 

@@ -3,12 +3,14 @@
 // and verified as the tracker verifies a frame.
 //
 //  1. Features. Segments (Lowe's detector, segments.h), and the junctions where two of them end
-//     at a common corner (junctions.h): a junction and the far ends of its two arms are three
-//     image points.
+//     at a common corner, no segment going on through it (junctions.h): a junction and the far
+//     ends of its two arms (or the corners of junctions further along them) are three image
+//     points.
 //  2. Hypotheses. Each junction is matched to each vertex of each rigid component where two of
 //     its edges meet, the arms to those edges (both ways round): Lambda Twist P3P (p3p.h) on the
 //     vertex and its two neighbours gives up to four poses of that component, and the model's
-//     other components follow at their nominal joint values. An arm may stop short of the
+//     other components follow at their nominal joint values (for the candidates of step 3, at
+//     the values across each joint's range whose edges explain the most: `joint_values`). An arm may stop short of the
 //     neighbouring vertex or run past it (occlusion, a broken or merged segment): such a pose is
 //     rough, which the tracking in step 4 forgives, or wrong, which the ranking in step 3 and
 //     the verification in step 4 refuse.
@@ -47,20 +49,31 @@ struct DetectorOptions {
   JunctionOptions junctions;
   EdgeOrientationOptions orientations;
   int max_junctions = 120;   // the strongest junctions seed hypotheses
+  // Where an arm may end: its segment's far end and at most this many more, the corners of
+  // junctions further along its line (ArmEnds).
+  int max_arm_ends = 3;
   long max_poses = 400000;   // P3P poses scored at most
   int max_candidates = 12;   // the best poses, spread apart, tracked and verified
   int max_results = 1;       // objects reported
+  // A candidate's joints between rigid parts, one at a time, at this many values across their
+  // limits (round the circle without): the configuration whose edges explain the most is tracked.
+  int joint_values = 8;
   double sample_step = 4;    // px between the ranking's samples along an edge
   double min_samples = 12;   // a pose showing fewer samples in the image is not ranked
   double min_depth = 0.02;   // m: every point of the seeded component in front of the camera
-  double spread_pixels = 10;  // candidates' seeded vertices at least this far apart ...
-  double spread_degrees = 15;  // ... or turned this much from each other
+  // Candidates differ by more than this (px) somewhere in their outlines: the model's points
+  // where one projects them, against the nearest the other projects (a symmetric model's poses
+  // that draw the same outline are one candidate).
+  double spread_pixels = 10;
   // A found pose, searched for among thousands with no prior to hold it, must show the object
   // more plainly than a tracked frame: its outline supported beyond chance's share by at least
   // `min_margin`, and at least `min_dominant` of it dominated by its edges (verification.h). On a
   // textured scene a pose among thousands fits the texture as well as a tracked frame's tests ask.
+  // ... and its pose must rest on at least `min_matches` matched edges (a printed square on a
+  // face, four edges, fits a box's outline there).
   double min_margin = 0.5;
-  double min_dominant = 0.55;
+  double min_dominant = 0.6;
+  int min_matches = 6;
   TrackerOptions tracker;
 };
 
@@ -88,8 +101,8 @@ struct DetectionStats {
 struct Detection {
   // Verified objects, the most of the image explained first (at most max_results).
   std::vector<TrackedFrame> found;
-  // Per object found: the other poses verified that draw the same outline (within 2 px) from
-  // elsewhere, the model's symmetry (a box turned half round): the image cannot tell them from
+  // Per object found: the other poses verified that draw the same outline (each model point's
+  // image within 2 px of one of the other's) from elsewhere, the model's symmetry (a box turned half round): the image cannot tell them from
   // the one reported.
   std::vector<std::vector<Values>> twins;
   // Candidates in ranking order, tracked or not: what was tried and why it was refused.

@@ -53,6 +53,7 @@ class EdgeOrientations {
   // Steps found (before the spread), for tests and figures.
   int steps() const { return steps_; }
 
+
  private:
   int width_ = 0, height_ = 0, steps_ = 0;
   std::vector<std::uint8_t> bits_;

@@ -39,4 +39,12 @@ struct Junction {
 std::vector<Junction> FindJunctions(const std::vector<ImageSegment>& segments,
                                     const JunctionOptions& options = {});
 
+// Where arm `arm` of junction `j` may end at the next vertex: its segment's far end, and the
+// corners of other junctions that lie on the arm's line beyond it (within `max_gap` px across it,
+// at least min_arm_length px along) with an arm pointing back (within min_angle / 2): an edge
+// whose segment broke on texture, a highlight or an occluder still joins its two corners. At most
+// `max_ends` points, the segment's far end first, then the nearest corners.
+std::vector<Eigen::Vector2d> ArmEnds(const std::vector<Junction>& junctions, int j, int arm,
+                                     const JunctionOptions& options = {}, int max_ends = 3);
+
 }  // namespace cfuse
