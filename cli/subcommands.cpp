@@ -168,8 +168,9 @@ std::function<int()> DeclareTrack(CLI::App* cmd) {
   cmd->add_option("--images", o->images,
                   "The frames: a glob ('frames/*.png'), a directory or a video file")
       ->required();
-  cmd->add_option("--init", o->init, "Poses at the first frame (results format, or ViSP's .pos)")
-      ->required();
+  cmd->add_option("--init", o->init,
+                  "Poses at the first frame (results format, or ViSP's .pos); without it the "
+                  "object is detected");
   cmd->add_option("-o,--output", o->output, "Track file, CSV (default: stdout)");
   cmd->add_option("--overlay", o->overlay, "Directory for overlay frames (PNG)");
   cmd->add_option("--max-branches", o->max_branches, "Match sets tried per search range")

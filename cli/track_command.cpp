@@ -22,6 +22,7 @@
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/error.h"
+#include "cfuse/track/auto_tracker.h"
 #include "cfuse/track/tracker.h"
 #include "cli/command_support.h"
 #include "cli/image_support.h"
@@ -268,6 +269,7 @@ struct TrackTally {
   std::map<int, std::pair<int, std::string>> why_lost;
   std::vector<double> ms;
   FrameTimes sum;
+  std::vector<int> detected;  // frames found by detection with no pose given
 };
 
 // The summary after the track (on stderr when the track itself went to stdout), and the exit
@@ -279,6 +281,10 @@ int ReportTrack(const TrackCommandOptions& options, const ConstraintGraph& graph
   report << fmt::format("track: '{}', {} frames: {} verified ({:.1f} %){}\n", graph.name, t.frames,
                         t.verified, 100.0 * t.verified / n,
                         t.lost.empty() ? "" : ", lost: " + Ranges(t.lost));
+  if (!t.detected.empty()) {
+    report << fmt::format("found by detection with no pose given: frame{} {}\n",
+                          t.detected.size() == 1 ? "" : "s", Ranges(t.detected));
+  }
   if (!t.why_lost.empty()) {
     // The reason most lost frames gave (a refusal says why).
     const auto most = std::max_element(
@@ -318,7 +324,9 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     // one with a size must match it.
     Camera camera = LoadAnyCamera(options.camera);
     const bool camera_sized = camera.width > 0 && camera.height > 0;
-    const Values initial = PosedModel(graph, options.init);
+    // Without a start, the first frame is detected (cfuse/track/auto_tracker.h).
+    std::optional<Values> initial;
+    if (!options.init.empty()) initial = PosedModel(graph, options.init);
     if (ModelEdges(graph).empty()) {
       throw InputError(SourceLocation(options.model),
                        fmt::format("model '{}' has no edges to track (give its components "
@@ -331,7 +339,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     tracker_options.max_branches = options.max_branches;
     // Made with the first frame that is read, whose size it needs; frames skipped before it are
     // counted so that the prediction spans them all the same.
-    std::optional<Tracker> tracker;
+    std::optional<AutoTracker> tracker;
     int skipped_before_first = 0;
     std::string csv = TrackCsvHeader(graph, true);
     TrackTally tally;
@@ -377,13 +385,16 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
         continue;
       }
       if (!tracker) {
-        tracker.emplace(graph, camera, initial, tracker_options);
+        AutoTrackerOptions auto_options;
+        auto_options.tracker = tracker_options;
+        tracker.emplace(graph, camera, initial, auto_options);
         for (int k = 0; k < skipped_before_first; ++k) tracker->Skip();
       }
       const GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
       const TrackedFrame f = tracker->Track(view);
       ++frames;
       verified += f.verified ? 1 : 0;
+      if (f.detected) tally.detected.push_back(frame);
       if (!f.verified) {
         lost.push_back(frame);
         // Grouped by the test that failed, with the first frame's words for it.

@@ -27,7 +27,7 @@ struct TrackCommandOptions {
   std::string model;
   std::string camera;
   std::string images;   // glob, directory or video file
-  std::string init;     // results-format poses at the first frame, or a ViSP .pos
+  std::string init;     // results-format poses at the first frame, or a ViSP .pos; empty: detected
   std::string output;   // TRACK.csv; empty: stdout (and the summary to stderr)
   std::string overlay;  // directory for the overlay frames (created if missing)
   int max_branches = 5;

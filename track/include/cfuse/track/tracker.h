@@ -160,6 +160,7 @@ struct TrackedFrame {
   int branches = 0;           // match sets tried
   int matches = 0;            // in the accepted (extended) set
   bool reacquired = false;    // found by re-acquisition, away from the prediction
+  bool detected = false;      // found by detection with no pose given (auto_tracker.h)
   double residual_sigma = 0;  // px, RMS of the accepted matches' residuals
   // The accepted matches' whitened residuals at the estimate: chi-square over the rows the fit
   // leaves free (2 a match, less the model's DOF); 0 and 0 when lost.
