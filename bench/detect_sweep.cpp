@@ -149,6 +149,11 @@ int Run(int argc, char** argv) {
   app.add_option("--models", names, "box, castle, hinged-box");
   app.add_option("--seed", seed);
   app.add_flag("--verbose", verbose, "a line per trial");
+  std::string detector_name = "lowe";
+  app.add_option("--segments", detector_name, "the segment detector: lowe, canny, lsd or hough");
+  int hough_votes = 30, hough_gap = 12;
+  app.add_option("--hough-votes", hough_votes);
+  app.add_option("--hough-gap", hough_gap, "px bridged along a line");
   bool candidates = false;
   app.add_flag("--candidates", candidates, "with --verbose: each candidate tracked, and how far off");
   std::string dump;
@@ -209,7 +214,27 @@ int Run(int argc, char** argv) {
       }
       const GrayView view{r.pixels.data(), r.width, r.height, r.width};
       const auto start = std::chrono::steady_clock::now();
-      const Detection d = Detect(c.graph, c.camera, view);
+      DetectorOptions options;
+      std::vector<ImageSegment> lines;
+      if (detector_name == "hough") {
+        // Canny's edges, and OpenCV's probabilistic Hough transform bridging gaps along a line.
+        cv::Mat grey(r.height, r.width, CV_8U, const_cast<std::uint8_t*>(r.pixels.data())), edges;
+        cv::GaussianBlur(grey, edges, cv::Size(0, 0), 1.2);
+        cv::Canny(edges, edges, 20, 50);
+        std::vector<cv::Vec4i> found;
+        cv::HoughLinesP(edges, found, 1, M_PI / 360, hough_votes, 20, hough_gap);
+        for (const cv::Vec4i& l : found) {
+          ImageSegment g;
+          g.a = Eigen::Vector2f(l[0], l[1]);
+          g.b = Eigen::Vector2f(l[2], l[3]);
+          g.strength = 30;
+          lines.push_back(g);
+        }
+      } else {
+        options.segments.detector = *ParseDetector(detector_name);
+      }
+      const Detection d =
+          Detect(c.graph, c.camera, view, options, detector_name == "hough" ? &lines : nullptr);
       ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                        .count());
       sum.segment_ms += d.stats.segment_ms;

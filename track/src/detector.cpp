@@ -341,7 +341,7 @@ TrackerOptions WithoutSettling(TrackerOptions options) {
 double ExplainedEvidence(const Verification& v) { return v.supported - v.chance * v.samples; }
 
 Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
-                 const DetectorOptions& options) {
+                 const DetectorOptions& options, const std::vector<ImageSegment>* segments) {
   if (image.data == nullptr || image.width <= 0 || image.height <= 0) {
     throw InputError(SourceLocation(), "the image is empty");
   }
@@ -357,7 +357,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
   }
   Detection out;
   auto start = Clock::now();
-  out.segments = DetectSegments(image, options.segments);
+  out.segments = segments ? *segments : DetectSegments(image, options.segments);
   out.junctions = FindJunctions(out.segments, options.junctions);
   out.stats.segments = static_cast<int>(out.segments.size());
   out.stats.junctions = static_cast<int>(out.junctions.size());

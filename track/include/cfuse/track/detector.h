@@ -116,8 +116,11 @@ struct Detection {
 
 // Throws InputError (its location left to the caller) for a camera without a size or one of
 // another size than the image, a model without edges, or an empty image.
+// `segments`: the image's segments from a detector of the caller's, instead of DetectSegments
+// with options.segments.
 Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
-                 const DetectorOptions& options = {});
+                 const DetectorOptions& options = {},
+                 const std::vector<ImageSegment>* segments = nullptr);
 
 // What a verified frame explains of the image: its outline's samples supported beyond what
 // chance gives beside its edges (the tracker's settling compares poses by it).
