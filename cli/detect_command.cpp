@@ -3,9 +3,11 @@
 #include <fmt/format.h>
 
 #include <nlohmann/json.hpp>
+#include <cmath>
 #include <ostream>
 
 #include "cfuse/geometry/model_edges.h"
+#include "cfuse/interp/joint_estimates.h"
 #include "cfuse/track/detector.h"
 #include "cli/command_support.h"
 #include "cli/image_support.h"
@@ -26,6 +28,31 @@ nlohmann::json OutlineJson(const Verification& v) {
 
 nlohmann::json FrameJson(const ConstraintGraph& graph, const TrackedFrame& f) {
   nlohmann::json j = PosesJson(graph, f.estimate.mean);
+  // Each rigid component's covariance (its tangent block: rotation, then translation, in the
+  // camera frame) and each joint's value with its standard deviation.
+  const Eigen::MatrixXd& p = f.estimate.covariance;
+  j["covariance"] = nlohmann::json::object();
+  for (const Component& c : graph.components) {
+    if (!c.rigid || c.block >= static_cast<int>(f.estimate.blocks.size())) continue;
+    const int o = f.estimate.blocks[c.block].tangent_offset;
+    if (p.rows() < o + 6) continue;
+    nlohmann::json rows = nlohmann::json::array();
+    for (int r = 0; r < 6; ++r) {
+      nlohmann::json row = nlohmann::json::array();
+      for (int k = 0; k < 6; ++k) row.push_back(p(o + r, o + k));
+      rows.push_back(row);
+    }
+    j["covariance"][c.name] = rows;
+  }
+  j["joints"] = nlohmann::json::object();
+  if (p.size() > 0) {
+    const JointEstimates joints = EstimateJoints(graph, f.estimate);
+    for (size_t k = 0; k < joints.joints.size(); ++k) {
+      j["joints"][graph.joints[joints.joints[k]].name] = {
+          {"value", joints.values[static_cast<int>(k)]},
+          {"sigma", std::sqrt(std::max(0.0, joints.covariance(k, k)))}};
+    }
+  }
   j["verified"] = f.verified;
   j["matches"] = f.matches;
   j["fit"] = {{"chi2", f.chi2}, {"dof", f.fit_dof}, {"residual_px", f.residual_sigma}};

@@ -54,6 +54,14 @@ TEST_CASE("cli detect: Castle-simu's frame found, its result usable as a start",
   CHECK(j["objects"][0]["verified"] == true);
   CHECK(j["objects"][0]["outline"]["share"].get<double>() > 0.7);
   CHECK(j["stats"]["junctions"].get<int>() > 0);
+  // The castle's covariance: 6 x 6, symmetric, positive on its diagonal.
+  const nlohmann::json& cov = j["objects"][0]["covariance"]["chateau"];
+  REQUIRE(cov.size() == 6);
+  for (int r = 0; r < 6; ++r) {
+    CHECK(cov[r][r].get<double>() > 0);
+    for (int k = 0; k < 6; ++k) CHECK(cov[r][k].get<double>() == Approx(cov[k][r].get<double>()));
+  }
+  CHECK(j["objects"][0]["joints"].empty());
   // The true camera pose of frame 10 (Castle-simu's CameraPose/Camera_010.txt).
   std::ifstream truth(kCastle / "CameraPose/Camera_010.txt");
   double m[16];
