@@ -162,6 +162,12 @@ TEST_CASE("detector: an image without the object finds nothing and says why", "[
   const Detection d = Detect(graph, camera, View(disks));
   CHECK(d.found.empty());
   CHECK_FALSE(d.why.empty());
+  CHECK(d.stats.segments > 0);
+  // The caller's segments instead of the detector's: none given, none used.
+  const std::vector<ImageSegment> no_segments;
+  const Detection given = Detect(graph, camera, View(disks), {}, &no_segments);
+  CHECK(given.stats.segments == 0);
+  CHECK(given.why.find("no junction") != std::string::npos);
 }
 
 TEST_CASE("detector: refuses an image of another size, an empty one, a model without edges",
