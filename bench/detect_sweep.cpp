@@ -152,6 +152,12 @@ int Run(int argc, char** argv) {
   std::string detector_name = "lowe";
   app.add_option("--segments", detector_name, "the segment detector: lowe, canny, lsd or hough");
   int hough_votes = 30, hough_gap = 12;
+  double junction_gap = 6;
+  bool oracle = false;
+  app.add_flag("--oracle", oracle,
+               "also track each render from its true pose: the share the tracker's verification "
+               "passes, detection's ceiling");
+  app.add_option("--junction-gap", junction_gap, "px from a crossing to the segments' ends");
   app.add_option("--hough-votes", hough_votes);
   app.add_option("--hough-gap", hough_gap, "px bridged along a line");
   bool candidates = false;
@@ -185,7 +191,7 @@ int Run(int argc, char** argv) {
       throw std::invalid_argument("unknown model '" + name + "'");
     }
     std::mt19937 rng(seed);
-    int right = 0, wrong = 0, missed = 0;
+    int right = 0, wrong = 0, missed = 0, oracle_verified = 0, oracle_plain = 0;
     std::vector<double> ms;
     DetectionStats sum;
     for (int t = 0; t < trials; ++t) {
@@ -215,6 +221,22 @@ int Run(int argc, char** argv) {
       const GrayView view{r.pixels.data(), r.width, r.height, r.width};
       const auto start = std::chrono::steady_clock::now();
       DetectorOptions options;
+      options.junctions.max_gap = junction_gap;
+      if (oracle) {
+        TrackerOptions quick;
+        quick.settle_places = quick.settle_depths = quick.settle_joint_values = 0;
+        Tracker tracker(c.graph, c.camera, truth, quick);
+        const TrackedFrame f = tracker.Track(view);
+        oracle_verified += f.verified;
+        if (verbose) {
+          fmt::print("  from the truth: {} {}, share {:.2f} chance {:.2f} dominant {:.2f}, {} matches\n",
+                     f.verified ? "verified" : "refused", f.verification.why, f.verification.share,
+                     f.verification.chance, f.verification.dominant_share, f.matches);
+        }
+        oracle_plain += f.verified && f.matches >= options.min_matches &&
+                        f.verification.share - f.verification.chance >= options.min_margin &&
+                        f.verification.dominant_share >= options.min_dominant;
+      }
       std::vector<ImageSegment> lines;
       if (detector_name == "hough") {
         // Canny's edges, and OpenCV's probabilistic Hough transform bridging gaps along a line.
@@ -293,6 +315,10 @@ int Run(int argc, char** argv) {
                name, trials, right, 100.0 * right / n, wrong, missed, ms[ms.size() / 2],
                sum.segment_ms / n, sum.orientation_ms / n, sum.ranking_ms / n,
                sum.tracking_ms / n);
+    if (oracle) {
+      fmt::print("  from the true pose: {} of {} verified, {} plain enough for detection\n",
+                 oracle_verified, trials, oracle_plain);
+    }
   }
   return 0;
 }

@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <fmt/format.h>
+#include <functional>
+#include <queue>
 
 #include "cfuse/constraints/evaluate.h"
 #include "cfuse/constraints/joint_model.h"
@@ -88,9 +90,15 @@ struct Scored {
 // What `shape`'s edges at `pose` explain of the image: supported samples less chance's share.
 // False when the pose puts a point too near or behind the camera or shows too little.
 bool Rank(const Shape& shape, const Rigid3d& pose, const Camera& camera,
-          const EdgeOrientations& steps, const DetectorOptions& options, double* evidence) {
+          const EdgeOrientations& steps, const DetectorOptions& options, double* evidence,
+          double floor = -INFINITY) {
   thread_local std::vector<Eigen::Vector2d> pixels;
   thread_local std::vector<char> front;
+  struct Piece {
+    Eigen::Vector2d a, d;
+    int bin, n;
+  };
+  thread_local std::vector<Piece> pieces;
   pixels.resize(shape.points.size());
   for (size_t i = 0; i < shape.points.size(); ++i) {
     const Eigen::Vector3d p = pose * shape.points[i];
@@ -102,8 +110,8 @@ bool Rank(const Shape& shape, const Rigid3d& pose, const Camera& camera,
   for (size_t f = 0; f < front.size(); ++f) {
     front[f] = shape.face_normal[f].dot(eye - shape.face_centre[f]) > 0;
   }
-  double supported = 0, chance = 0;
-  int samples = 0;
+  pieces.clear();
+  int remaining = 0;
   for (size_t e = 0; e < shape.edges.size(); ++e) {
     bool visible = shape.edge_faces[e].empty();
     for (const int f : shape.edge_faces[e]) visible = visible || front[f];
@@ -112,18 +120,27 @@ bool Rank(const Shape& shape, const Rigid3d& pose, const Camera& camera,
     const Eigen::Vector2d d = b - a;
     const double length = d.norm();
     if (!(length > 0)) continue;
-    const int bin = EdgeOrientations::Bin(Eigen::Vector2d(-d.y(), d.x()));
-    const std::uint8_t mask = EdgeOrientations::Tolerant(bin);
     const int n = static_cast<int>(std::ceil(length / options.sample_step));
-    for (int k = 0; k < n; ++k) {
-      const Eigen::Vector2d p = a + ((k + 0.5) / n) * d;
+    pieces.push_back({a, d, EdgeOrientations::Bin(Eigen::Vector2d(-d.y(), d.x())), n});
+    remaining += n;
+  }
+  // Samples supported less chance's share of them; a pose that cannot reach `floor` even with
+  // every sample left supported is given up.
+  double supported = 0, chance = 0;
+  int samples = 0;
+  for (const Piece& piece : pieces) {
+    const std::uint8_t mask = EdgeOrientations::Tolerant(piece.bin);
+    for (int k = 0; k < piece.n; ++k) {
+      const Eigen::Vector2d p = piece.a + ((k + 0.5) / piece.n) * piece.d;
+      --remaining;
       if (p.x() < 0 || p.y() < 0 || p.x() > steps.width() - 1 || p.y() > steps.height() - 1) {
         continue;
       }
       ++samples;
-      chance += steps.Chance(bin);
+      chance += steps.Chance(piece.bin);
       supported += steps.Has(p.x(), p.y(), mask);
     }
+    if (supported + remaining - chance < floor) return false;
   }
   if (samples < options.min_samples) return false;
   *evidence = supported - chance;
@@ -370,6 +387,10 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
   // Every junction against every vertex, both ways round, each P3P pose ranked.
   start = Clock::now();
   std::vector<Scored> scored;
+  // The best kRanked evidences so far (a min-heap): a pose that cannot beat the least of them
+  // is not ranked further, nor kept.
+  constexpr size_t kRanked = 300;
+  std::priority_queue<double, std::vector<double>, std::greater<double>> best;
   const int junctions =
       std::min<int>(static_cast<int>(out.junctions.size()), options.max_junctions);
   out.stats.junctions_cut = junctions < static_cast<int>(out.junctions.size());
@@ -401,7 +422,13 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
                 break;
               }
               double evidence = 0;
-              if (!Rank(s, pose, camera, steps, options, &evidence) || !(evidence > 0)) continue;
+              const double floor = best.size() < kRanked ? 0.0 : best.top();
+              if (!Rank(s, pose, camera, steps, options, &evidence, floor) ||
+                  !(evidence > floor)) {
+                continue;
+              }
+              best.push(evidence);
+              if (best.size() > kRanked) best.pop();
               Scored p;
               p.camera_from_component = pose;
               p.shape = static_cast<int>(si);
