@@ -153,7 +153,6 @@ int Run(int argc, char** argv) {
   app.add_option("--segments", detector_name, "the segment detector: lowe, canny, lsd or hough");
   int hough_votes = 30, hough_gap = 12;
   double junction_gap = 6;
-
   bool oracle = false;
   app.add_flag("--oracle", oracle,
                "also track each render from its true pose: the share the tracker's verification "
@@ -223,13 +222,9 @@ int Run(int argc, char** argv) {
       const auto start = std::chrono::steady_clock::now();
       DetectorOptions options;
       options.junctions.max_gap = junction_gap;
-
       if (oracle) {
         TrackerOptions quick;
         quick.settle_places = quick.settle_depths = quick.settle_joint_values = 0;
-        quick.max_position_sigma = std::max(
-            quick.max_position_sigma,
-            options.position_sigma_of_depth * truth.poses[0].translation.z());
         Tracker tracker(c.graph, c.camera, truth, quick);
         const TrackedFrame f = tracker.Track(view);
         oracle_verified += f.verified;

@@ -13,7 +13,6 @@
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/visp.h"
 #include "cfuse/kernel/error.h"
-#include "cfuse/vision/render.h"
 #include "cfuse/vision/sequence.h"
 #include "test_util.h"
 #include "track/track_run.h"
@@ -120,36 +119,6 @@ TEST_CASE("detector: the rigid box found in renders at several poses", "[tracker
     found += !d.found.empty();
   }
   CHECK(found >= 3);
-}
-
-TEST_CASE("detector: a far box found, its depth known to a share of its distance", "[tracker]") {
-  // The rigid box 3.9 m away (three times the standard sequence's distance): its edges pin its
-  // distance to a centimetre or two, beyond the tracker's 4 mm, but within 1 % of the distance
-  // (DetectorOptions::position_sigma_of_depth).
-  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
-  const Camera camera = StandardCamera();
-  DetectorOptions absolute;
-  absolute.position_sigma_of_depth = 0;
-  int found = 0, found_absolute = 0;
-  for (unsigned seed = 1; seed <= 3; ++seed) {
-    const std::vector<SequenceFrame> frames =
-        RenderSequence(graph, camera, StandardSequence(graph, "steady", 1, seed));
-    Values far = frames[0].truth;
-    for (Rigid3d& pose : far.poses) pose.translation *= 3;
-    RenderOptions render;
-    render.seed = seed;
-    const Rendering r = Render(graph, far, camera, render);
-    const GrayView view = testing::View(r);
-    const Detection d = Detect(graph, camera, view);
-    for (const TrackedFrame& f : d.found) {
-      CHECK(SetDistance(graph, camera, f.estimate.mean, far) < 3);
-      CHECK(SetDistance(graph, camera, far, f.estimate.mean) < 3);
-    }
-    found += !d.found.empty();
-    found_absolute += !Detect(graph, camera, view, absolute).found.empty();
-  }
-  CHECK(found >= 2);
-  CHECK(found_absolute < found);
 }
 
 TEST_CASE("detector: the hinged box found with its lid where it stands", "[tracker]") {

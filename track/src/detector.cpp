@@ -345,17 +345,6 @@ std::string Plainly(const TrackedFrame& f, const DetectorOptions& options) {
   return "";
 }
 
-// The tracker's bound on how well a visible edge's ends must be known, at least
-// `position_sigma_of_depth` of the root's depth: edges pin an object's distance less well the
-// further it is, and a far object found right would else be refused as undetermined.
-TrackerOptions AtDepth(TrackerOptions options, const ConstraintGraph& graph, const Values& values,
-                       const DetectorOptions& detector) {
-  options.max_position_sigma =
-      std::max(options.max_position_sigma,
-               detector.position_sigma_of_depth * RootPose(graph, values).translation.z());
-  return options;
-}
-
 TrackerOptions WithoutSettling(TrackerOptions options) {
   options.settle_places = 0;
   options.settle_depths = 0;
@@ -507,7 +496,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     c.values = BestJoints(graph, shapes,
                           Place(graph, shapes[p->shape].block, p->camera_from_component),
                           c.component, camera, steps, options);
-    Tracker tracker(graph, camera, c.values, AtDepth(quick, graph, c.values, options));
+    Tracker tracker(graph, camera, c.values, quick);
     c.frame = tracker.Track(image);
     c.tracked = true;
     ++out.stats.candidates;
@@ -583,8 +572,7 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
       continue;
     }
     // Settled as a tracker settles its first frame: tracked again from places about it.
-    Tracker tracker(graph, camera, f.estimate.mean,
-                    AtDepth(options.tracker, graph, f.estimate.mean, options));
+    Tracker tracker(graph, camera, f.estimate.mean, options.tracker);
     TrackedFrame settled = tracker.Track(image);
     plain = settled.verified ? Plainly(settled, options) : "";
     if (settled.verified && plain.empty()) {

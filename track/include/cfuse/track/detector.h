@@ -72,8 +72,6 @@ struct DetectorOptions {
   // ... and its pose must rest on at least `min_matches` matched edges (a printed square on a
   // face, four edges, fits a box's outline there).
   double min_margin = 0.5;
-  // The tracker's max_position_sigma for a found pose, at least this share of its depth.
-  double position_sigma_of_depth = 0.01;
   double min_dominant = 0.6;
   int min_matches = 6;
   TrackerOptions tracker;
