@@ -345,11 +345,15 @@ std::string Plainly(const TrackedFrame& f, const DetectorOptions& options) {
   return "";
 }
 
-TrackerOptions WithoutSettling(TrackerOptions options) {
+// A candidate's tracker: no settling (the best found is settled), and the search range doubled
+// once at most for a model with joints (their values start from a coarse grid across their
+// ranges, up to half a step off), never for a rigid one (its pose from P3P is as near as a
+// doubled range would reach, and a doubling that fails costs a tracked frame more).
+TrackerOptions ForCandidates(TrackerOptions options, bool joints) {
   options.settle_places = 0;
   options.settle_depths = 0;
   options.settle_joint_values = 0;
-  options.max_doublings = std::min(options.max_doublings, 1);
+  options.max_doublings = std::min(options.max_doublings, joints ? 1 : 0);
   return options;
 }
 
@@ -485,7 +489,9 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
 
   // Each candidate tracked on this image; the verified ones, best first, settled.
   start = Clock::now();
-  const TrackerOptions quick = WithoutSettling(options.tracker);
+  bool joints = false;
+  for (const Joint& joint : graph.joints) joints = joints || HasJointVariable(joint.type);
+  const TrackerOptions quick = ForCandidates(options.tracker, joints);
   std::vector<TrackedFrame> verified;
   for (const Scored* p : kept) {
     DetectionCandidate c;

@@ -9,24 +9,26 @@
 //  2. Hypotheses. Each junction is matched to each vertex of each rigid component where two of
 //     its edges meet, the arms to those edges (both ways round): Lambda Twist P3P (p3p.h) on the
 //     vertex and its two neighbours gives up to four poses of that component, and the model's
-//     other components follow at their nominal joint values (for the candidates of step 3, at
-//     the values across each joint's range whose edges explain the most: `joint_values`). An arm may stop short of the
+//     other components follow at their nominal joint values. An arm may stop short of the
 //     neighbouring vertex or run past it (occlusion, a broken or merged segment): such a pose is
 //     rough, which the tracking in step 4 forgives, or wrong, which the ranking in step 3 and
 //     the verification in step 4 refuse.
 //  3. Ranking. Each pose is scored by what its component's edges, hidden faces culled, explain of
 //     the image: samples along them with a step of about their orientation nearby, less what
 //     chance gives at that orientation (edge_orientations.h). The best, spread apart (no two
-//     within `spread_pixels` in the image and `spread_degrees` of each other), are the candidates.
+//     whose points' images lie within `spread_pixels` of each other's), are the candidates, each
+//     with its joints at the values across their ranges whose edges explain the most
+//     (`joint_values`).
 //  4. Verification. Each candidate starts a tracker (tracker.h) on this image: its edges matched
 //     by Lowe's best-first search, the pose and the joints estimated by the kernel, the outline
-//     verified (with one doubling of the search range at most). Verified candidates that reach
-//     the same pose, or draw the same outline (a symmetric model), are one answer. The best (the
-//     most of the image explained, ExplainedEvidence) is refused as ambiguous when another pose
-//     over the same part of the image explains nearly as much (TrackerOptions::decisive_share),
-//     and when it shows the object less plainly than a pose found with no prior must
-//     (`min_margin`, `min_dominant`); else it is settled as the tracker settles a first frame:
-//     tracked again from places about it, a lid across its range.
+//     verified (the search range doubled once at most, and only for a model with joints).
+//     Verified candidates that reach the same pose, or draw the same outline (a symmetric
+//     model), are one answer. The best (the most of the image explained, ExplainedEvidence) is
+//     refused as ambiguous when another plain pose over the same part of the image explains
+//     nearly as much (TrackerOptions::decisive_share), and when it shows the object less plainly
+//     than a pose found with no prior must (`min_margin`, `min_dominant`, `min_matches`); else it
+//     is settled as the tracker settles a first frame: tracked again from places about it, a lid
+//     across its range.
 //
 // The search is bounded: at most `max_junctions` junctions, `max_poses` scored poses and
 // `max_candidates` tracked; Detection says when a bound cut it short.
