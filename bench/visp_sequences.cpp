@@ -33,6 +33,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <opencv2/imgcodecs.hpp>
 #include <random>
 #include <sstream>
@@ -43,6 +44,7 @@
 #include "bench/visp_tracker.h"
 #include "cfuse/geometry/model_edges.h"
 #include "cfuse/importers/cao.h"
+#include "cfuse/track/auto_tracker.h"
 #include "cfuse/track/detector.h"
 #include "cfuse/track/tracker.h"
 
@@ -255,6 +257,9 @@ struct Run {
   FrameTimes mean;
 };
 
+// Whether cfuse's runs detect the object after a loss (--detect-after-loss).
+bool g_detect_after_loss = false;
+
 Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
                const std::vector<int>& picked, const Rigid3d& start,
                const TrackerOptions& base,
@@ -262,7 +267,11 @@ Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vecto
   Run run;
   TrackerOptions options = base;
   options.evidence = evidence;
-  Tracker tracker(graph, s.camera, Posed(graph, start), options);
+  // With detection after a loss (cfuse/track/auto_tracker.h), as `cfuse track` runs.
+  AutoTrackerOptions auto_options;
+  auto_options.tracker = options;
+  if (!g_detect_after_loss) auto_options.redetect_after = std::numeric_limits<int>::max();
+  AutoTracker tracker(graph, s.camera, Posed(graph, start), auto_options);
   for (int k : picked) {
     const cv::Mat& m = frames[k];
     const TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
@@ -443,6 +452,8 @@ int main(int argc, char** argv) {
   bool detect = false, verbose = false;
   app.add_flag("--detect", detect, "detection with no pose given on every frame, not tracking");
   app.add_flag("--verbose", verbose, "a line per frame (--detect)");
+  app.add_flag("--detect-after-loss", g_detect_after_loss,
+               "cfuse's tracks detect the object after two frames lost, as `cfuse track` does");
   int candidates = 0;
   app.add_option("--candidates", candidates, "poses tracked per frame (--detect)");
   std::string without;
