@@ -145,6 +145,11 @@ int RunDetect(const DetectCommandOptions& options, std::ostream& out, std::ostre
     } else {
       WriteFileAtomically(options.output, text);
     }
+    if (s.junctions_cut || s.poses_cut) {
+      err << fmt::format("cfuse detect: the search was cut short ({})\n",
+                         s.poses_cut ? "the bound on ranked poses was reached"
+                                     : "junctions beyond the strongest were left out");
+    }
     if (d.found.empty()) {
       err << fmt::format("cfuse detect: {} not found in {}: {}\n", graph.name, options.image, d.why);
       return 1;
@@ -161,11 +166,6 @@ int RunDetect(const DetectCommandOptions& options, std::ostream& out, std::ostre
               : fmt::format("; the same outline at {} other pose(s): the model's symmetry, "
                             "which the image cannot tell apart",
                             d.twins[i].size()));
-    }
-    if (s.junctions_cut || s.poses_cut) {
-      err << "cfuse detect: the search was cut short (" <<
-          (s.junctions_cut ? "junctions beyond the strongest left out" : "the ranked poses' bound reached")
-          << ")\n";
     }
     return 0;
   });

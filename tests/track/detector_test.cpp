@@ -170,6 +170,40 @@ TEST_CASE("detector: an image without the object finds nothing and says why", "[
   CHECK(given.why.find("no junction") != std::string::npos);
 }
 
+TEST_CASE("detector: noise finds nothing, and a search cut short says so", "[tracker]") {
+  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  const Camera camera = StandardCamera();
+  // Noise at every contrast: steps and segments everywhere, never a box.
+  for (const int seed : {1, 2, 3}) {
+    cv::Mat noise(camera.height, camera.width, CV_8U);
+    cv::RNG rng(seed);
+    rng.fill(noise, cv::RNG::UNIFORM, 0, 256);
+    cv::GaussianBlur(noise, noise, cv::Size(0, 0), 1.5 * seed);
+    const Detection d = Detect(graph, camera, View(noise));
+    CAPTURE(seed, d.why);
+    CHECK(d.found.empty());
+    CHECK_FALSE(d.why.empty());
+  }
+  // The rigid box in a plain render, the search bounded to 2 junctions and 50 poses: the
+  // bounds are reported, and whatever is found is right.
+  const std::vector<SequenceFrame> frames =
+      RenderSequence(graph, camera, StandardSequence(graph, "steady", 1, 1));
+  DetectorOptions tight;
+  tight.max_junctions = 2;
+  tight.max_poses = 50;
+  const Detection d = Detect(graph, camera, testing::View(frames[0].rendering), tight);
+  CHECK(d.stats.junctions_cut);
+  CHECK(d.stats.poses_cut);
+  CHECK(d.stats.poses == 50);
+  for (const TrackedFrame& f : d.found) {
+    CHECK(SetDistance(graph, camera, f.estimate.mean, frames[0].truth) < 3);
+  }
+  // Unbounded, neither is.
+  const Detection full = Detect(graph, camera, testing::View(frames[0].rendering));
+  CHECK_FALSE(full.stats.junctions_cut);
+  CHECK_FALSE(full.stats.poses_cut);
+}
+
 TEST_CASE("detector: refuses an image of another size, an empty one, a model without edges",
           "[tracker]") {
   const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
