@@ -52,23 +52,11 @@ Camera Pinhole(double f) {
   return c;
 }
 
-// The model's points in the camera frame at `values`.
-std::vector<Eigen::Vector2d> Projected(const ConstraintGraph& graph, const Camera& camera,
-                                       const Values& values) {
-  std::vector<Eigen::Vector2d> out;
-  for (const Component& c : graph.components) {
-    if (!c.rigid) continue;
-    const Rigid3d& pose = values.poses[graph.blocks[c.block].index];
-    for (const FeaturePoint& p : c.points) out.push_back(camera.Project<double>(pose * p.position));
-  }
-  return out;
-}
-
 // The mean distance (px) from each point `found` projects to the nearest the truth projects.
 double MeanDistance(const ConstraintGraph& graph, const Camera& camera, const Values& found,
                     const Values& truth) {
-  const std::vector<Eigen::Vector2d> a = Projected(graph, camera, found);
-  const std::vector<Eigen::Vector2d> b = Projected(graph, camera, truth);
+  const std::vector<Eigen::Vector2d> a = ProjectedPoints(graph, camera, found);
+  const std::vector<Eigen::Vector2d> b = ProjectedPoints(graph, camera, truth);
   double sum = 0;
   for (const Eigen::Vector2d& p : a) {
     double nearest = INFINITY;
@@ -204,7 +192,7 @@ int Run(int argc, char** argv) {
       if (t % 3 == 2) {
         // A dark card over a quarter of the object's box in the image.
         Eigen::AlignedBox2d box;
-        for (const Eigen::Vector2d& p : Projected(c.graph, c.camera, truth)) box.extend(p);
+        for (const Eigen::Vector2d& p : ProjectedPoints(c.graph, c.camera, truth)) box.extend(p);
         const Eigen::Vector2d size = box.sizes();
         std::uniform_real_distribution<double> unit(0, 1);
         const Eigen::Vector2d corner = box.min() + Eigen::Vector2d(unit(rng) * 0.5 * size.x(),
@@ -281,7 +269,7 @@ int Run(int argc, char** argv) {
         for (const Junction& j : d.junctions) {
           cv::circle(canvas, cv::Point2d(j.corner.x(), j.corner.y()), 3, cv::Scalar(0, 0, 255), 1);
         }
-        for (const Eigen::Vector2d& p : Projected(c.graph, c.camera, truth)) {
+        for (const Eigen::Vector2d& p : ProjectedPoints(c.graph, c.camera, truth)) {
           cv::drawMarker(canvas, cv::Point2d(p.x(), p.y()), cv::Scalar(255, 0, 0), cv::MARKER_CROSS, 8);
         }
         cv::imwrite(fmt::format("{}/{}_{}_features.png", dump, name, t), canvas);

@@ -257,21 +257,14 @@ struct Run {
   FrameTimes mean;
 };
 
-// Whether cfuse's runs detect the object after a loss (--detect-after-loss).
-bool g_detect_after_loss = false;
-
 Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
                const std::vector<int>& picked, const Rigid3d& start,
-               const TrackerOptions& base,
+               const AutoTrackerOptions& base,
                EdgeEvidence evidence = EdgeEvidence::kNormalSearch) {
   Run run;
-  TrackerOptions options = base;
-  options.evidence = evidence;
-  // With detection after a loss (cfuse/track/auto_tracker.h), as `cfuse track` runs.
-  AutoTrackerOptions auto_options;
-  auto_options.tracker = options;
-  if (!g_detect_after_loss) auto_options.redetect_after = std::numeric_limits<int>::max();
-  AutoTracker tracker(graph, s.camera, Posed(graph, start), auto_options);
+  AutoTrackerOptions options = base;
+  options.tracker.evidence = evidence;
+  AutoTracker tracker(graph, s.camera, Posed(graph, start), options);
   for (int k : picked) {
     const cv::Mat& m = frames[k];
     const TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
@@ -316,28 +309,15 @@ double Mean(const std::vector<double>& v) {
 // same outline and which no image can tell from the reference.
 double PointSetDistance(const ConstraintGraph& graph, const Camera& camera, const Rigid3d& a,
                         const Rigid3d& b) {
-  const Values va = Posed(graph, a), vb = Posed(graph, b);
-  std::vector<Eigen::Vector2d> pb;
-  for (const Component& c : graph.components) {
-    if (!c.rigid) continue;
-    for (const FeaturePoint& p : c.points) {
-      pb.push_back(camera.Project<double>(vb.poses[graph.blocks[c.block].index] * p.position));
-    }
-  }
+  const std::vector<Eigen::Vector2d> pa = ProjectedPoints(graph, camera, Posed(graph, a));
+  const std::vector<Eigen::Vector2d> pb = ProjectedPoints(graph, camera, Posed(graph, b));
   double sum = 0;
-  int n = 0;
-  for (const Component& c : graph.components) {
-    if (!c.rigid) continue;
-    for (const FeaturePoint& p : c.points) {
-      const Eigen::Vector2d q =
-          camera.Project<double>(va.poses[graph.blocks[c.block].index] * p.position);
-      double nearest = INFINITY;
-      for (const Eigen::Vector2d& r : pb) nearest = std::min(nearest, (q - r).norm());
-      sum += nearest;
-      ++n;
-    }
+  for (const Eigen::Vector2d& q : pa) {
+    double nearest = INFINITY;
+    for (const Eigen::Vector2d& r : pb) nearest = std::min(nearest, (q - r).norm());
+    sum += nearest;
   }
-  return n > 0 ? sum / n : 0;
+  return pa.empty() ? 0 : sum / static_cast<double>(pa.size());
 }
 
 // Detection with no pose given, frame by frame: found right (the model's points at most 3 px on
@@ -346,7 +326,7 @@ double PointSetDistance(const ConstraintGraph& graph, const Camera& camera, cons
 void DetectFrames(const ConstraintGraph& graph, const std::vector<ModelEdge>& edges,
                   const Sequence& s, const std::vector<cv::Mat>& frames,
                   const std::vector<Rigid3d>& reference, const DetectorOptions& options,
-                  bool verbose) {
+                  bool verbose, bool show_candidates) {
   int right = 0, wrong = 0, missed = 0;
   std::vector<double> ms, errors;
   DetectionStats sum;
@@ -404,7 +384,7 @@ void DetectFrames(const ConstraintGraph& graph, const std::vector<ModelEdge>& ed
                    v.share, v.dominant_share, v.agreement, v.spread, v.chance,
                    ExplainedEvidence(v), v.samples, v.least_component);
       }
-      if (std::getenv("CFUSE_DETECT_CANDIDATES")) {
+      if (show_candidates) {
         for (const DetectionCandidate& c : d.candidates) {
           const Rigid3d pose =
               c.frame.estimate.mean.poses[0] * graph.nominal.poses[0].Inverse();
@@ -452,7 +432,11 @@ int main(int argc, char** argv) {
   bool detect = false, verbose = false;
   app.add_flag("--detect", detect, "detection with no pose given on every frame, not tracking");
   app.add_flag("--verbose", verbose, "a line per frame (--detect)");
-  app.add_flag("--detect-after-loss", g_detect_after_loss,
+  bool show_candidates = false;
+  app.add_flag("--show-candidates", show_candidates,
+               "with --detect --verbose: each candidate tracked, and how far off");
+  bool detect_after_loss = false;
+  app.add_flag("--detect-after-loss", detect_after_loss,
                "cfuse's tracks detect the object after two frames lost, as `cfuse track` does");
   int candidates = 0;
   app.add_option("--candidates", candidates, "poses tracked per frame (--detect)");
@@ -460,9 +444,11 @@ int main(int argc, char** argv) {
   app.add_option("--without", without, std::string("safeguards off, comma-separated: ") +
                                            bench::kSafeguards);
   CLI11_PARSE(app, argc, argv);
-  TrackerOptions options;
+  // cfuse's tracks, with detection after a loss (cfuse/track/auto_tracker.h) only when asked.
+  AutoTrackerOptions options;
+  if (!detect_after_loss) options.redetect_after = std::numeric_limits<int>::max();
   try {
-    bench::DisableSafeguards(without, &options);
+    bench::DisableSafeguards(without, &options.tracker);
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "visp_sequences: {}\n", e.what());
     return 2;
@@ -518,7 +504,7 @@ int main(int argc, char** argv) {
     if (detect) {
       DetectorOptions detector;
       if (candidates > 0) detector.max_candidates = candidates;
-      DetectFrames(graph, edges, s, frames, reference, detector, verbose);
+      DetectFrames(graph, edges, s, frames, reference, detector, verbose, show_candidates);
       continue;
     }
     for (int k : steps) {

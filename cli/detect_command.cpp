@@ -108,7 +108,7 @@ int RunDetect(const DetectCommandOptions& options, std::ostream& out, std::ostre
     json["refused"] = nlohmann::json::array();
     for (const DetectionCandidate& c : d.candidates) {
       if (json["refused"].size() >= 5) break;
-      if (c.tracked && !c.frame.verified) json["refused"].push_back(FrameJson(graph, c.frame));
+      if (!c.frame.verified) json["refused"].push_back(FrameJson(graph, c.frame));
     }
     const DetectionStats& s = d.stats;
     json["stats"] = {{"segments", s.segments},         {"junctions", s.junctions},
@@ -122,23 +122,16 @@ int RunDetect(const DetectCommandOptions& options, std::ostream& out, std::ostre
                              {"total", s.Total()}}}};
     const std::string text = json.dump(2) + "\n";
     if (!options.overlay.empty()) {
+      // The object found, or the best candidate tracked, marked as refused.
+      const TrackedFrame shown = !d.found.empty()      ? d.found[0]
+                                 : d.candidates.empty() ? TrackedFrame{}
+                                                        : d.candidates[0].frame;
       OverlayOptions overlay;
-      if (!d.found.empty()) {
-        overlay.caption = fmt::format("found  {} matches  {:.0f} ms", d.found[0].matches, s.Total());
-        WriteFileAtomically(options.overlay,
-                            PngBytes(DrawOverlay(view, graph, camera, d.found[0], overlay)));
-      } else {
-        // The best candidate tracked, marked as refused.
-        TrackedFrame best;
-        for (const DetectionCandidate& c : d.candidates) {
-          if (c.tracked) {
-            best = c.frame;
-            break;
-          }
-        }
-        overlay.caption = fmt::format("NOT FOUND  {:.0f} ms", s.Total());
-        WriteFileAtomically(options.overlay, PngBytes(DrawOverlay(view, graph, camera, best, overlay)));
-      }
+      overlay.caption = d.found.empty()
+                            ? fmt::format("NOT FOUND  {:.0f} ms", s.Total())
+                            : fmt::format("found  {} matches  {:.0f} ms", shown.matches, s.Total());
+      WriteFileAtomically(options.overlay,
+                          PngBytes(DrawOverlay(view, graph, camera, shown, overlay)));
     }
     if (options.output.empty()) {
       out << text;

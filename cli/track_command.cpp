@@ -296,9 +296,10 @@ int ReportTrack(const TrackCommandOptions& options, const ConstraintGraph& graph
   if (!t.ms.empty()) {
     report << fmt::format(
         "time per frame: median {:.2f} ms, worst {:.2f} ms (mean: edges {:.2f}, prediction "
-        "{:.2f}, search {:.2f}, estimation {:.2f}, verification {:.2f})\n",
+        "{:.2f}, search {:.2f}, estimation {:.2f}, verification {:.2f}{})\n",
         Median(t.ms), *std::max_element(t.ms.begin(), t.ms.end()), t.sum.segments / n,
-        t.sum.prediction / n, t.sum.search / n, t.sum.estimation / n, t.sum.verification / n);
+        t.sum.prediction / n, t.sum.search / n, t.sum.estimation / n, t.sum.verification / n,
+        t.sum.detection > 0 ? fmt::format(", detection {:.2f}", t.sum.detection / n) : "");
   }
   if (!options.output.empty()) report << fmt::format("track -> {}\n", options.output);
   if (!options.overlay.empty()) report << fmt::format("overlays -> {}/\n", options.overlay);
@@ -404,11 +405,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
         }
       }
       ms.push_back(f.times.Total());
-      sum.segments += f.times.segments;
-      sum.prediction += f.times.prediction;
-      sum.search += f.times.search;
-      sum.estimation += f.times.estimation;
-      sum.verification += f.times.verification;
+      sum += f.times;
       csv += TrackCsvRow(graph, frame, f.times.Total(), f.verified, f.estimate.mean, &f);
       if (!options.overlay.empty()) {
         if (frames == 1) {

@@ -170,6 +170,41 @@ TEST_CASE("detector: an image without the object finds nothing and says why", "[
   CHECK(given.why.find("no junction") != std::string::npos);
 }
 
+TEST_CASE("detector: the model's points in the image, the same for a box turned half round",
+          "[tracker]") {
+  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  const Camera camera = StandardCamera();
+  const std::vector<SequenceFrame> frames =
+      RenderSequence(graph, camera, StandardSequence(graph, "steady", 1, 1));
+  const Values& truth = frames[0].truth;
+  const std::vector<Eigen::Vector2d> points = ProjectedPoints(graph, camera, truth);
+  REQUIRE(points.size() == graph.components[0].points.size());
+  for (size_t i = 0; i < points.size(); ++i) {
+    CHECK((points[i] - camera.Project<double>(truth.poses[0] * graph.components[0].points[i].position))
+              .norm() < 1e-9);
+  }
+  // Turned half round about an axis through the box's centre along one of its own axes: the same
+  // points, in another order.
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  for (const FeaturePoint& p : graph.components[0].points) centre += p.position;
+  centre /= static_cast<double>(graph.components[0].points.size());
+  Values turned = truth;
+  turned.poses[0] = truth.poses[0] * Rigid3d(Eigen::Quaterniond::Identity(), centre) *
+                    Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI, Eigen::Vector3d::UnitZ())),
+                            Eigen::Vector3d::Zero()) *
+                    Rigid3d(Eigen::Quaterniond::Identity(), -centre);
+  const std::vector<Eigen::Vector2d> twin = ProjectedPoints(graph, camera, turned);
+  REQUIRE(twin.size() == points.size());
+  double moved = 0;  // the most any one point moved
+  for (size_t i = 0; i < twin.size(); ++i) {
+    double nearest = INFINITY;
+    for (const Eigen::Vector2d& p : points) nearest = std::min(nearest, (twin[i] - p).norm());
+    CHECK(nearest < 1e-6);
+    moved = std::max(moved, (twin[i] - points[i]).norm());
+  }
+  CHECK(moved > 10);
+}
+
 TEST_CASE("detector: noise finds nothing, and a search cut short says so", "[tracker]") {
   const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
   const Camera camera = StandardCamera();

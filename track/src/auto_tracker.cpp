@@ -22,7 +22,7 @@ bool AutoTracker::Detect(const GrayView& image, TrackedFrame* out) {
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   if (d.found.empty()) {
     out->verification.why = "not detected: " + d.why;
-    out->times.segments += ms;
+    out->times.detection += ms;
     return false;
   }
   ++detections_found_;
@@ -30,7 +30,7 @@ bool AutoTracker::Detect(const GrayView& image, TrackedFrame* out) {
   // kept only when the frame is verified.
   Tracker fresh(graph_, camera_, d.found[0].estimate.mean, options_.tracker);
   TrackedFrame f = fresh.Track(image);
-  f.times.segments += ms;
+  f.times.detection += ms;
   if (!f.verified) {
     out->verification = f.verification;
     out->verification.why = "detected, but not verified when tracked: " + f.verification.why;
@@ -63,7 +63,7 @@ TrackedFrame AutoTracker::Track(const GrayView& image) {
     return detected;
   }
   // Not found: the lost frame as the tracker saw it, with detection's time and reason added.
-  out.times.segments += detected.times.segments;
+  out.times.detection += detected.times.detection;
   if (!detected.verification.why.empty()) {
     out.verification.why += "; " + detected.verification.why;
   }

@@ -84,7 +84,6 @@ struct Scored {
   int shape = -1, vertex = -1, junction = -1;
   double evidence = 0;
   Eigen::Vector2d centroid;  // the shape's centroid in the image
-  double depth = 0;
 };
 
 // What `shape`'s edges at `pose` explain of the image: supported samples less chance's share.
@@ -271,16 +270,15 @@ const Rigid3d& RootPose(const ConstraintGraph& graph, const Values& values) {
   return block < 0 ? kIdentity : values.poses[graph.blocks[block].index];
 }
 
-// Where `values` projects every rigid component's points.
-std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const Camera& camera,
-                                            const Values& values) {
-  std::vector<Eigen::Vector2d> out;
-  for (const Component& c : graph.components) {
-    if (!c.rigid) continue;
-    const Rigid3d& pose = values.poses[graph.blocks[c.block].index];
-    for (const FeaturePoint& p : c.points) out.push_back(camera.Project<double>(pose * p.position));
+// The largest distance (px) from a point of `from` to the nearest point of `to`.
+double Farthest(const std::vector<Eigen::Vector2d>& from, const std::vector<Eigen::Vector2d>& to) {
+  double farthest = 0;
+  for (const Eigen::Vector2d& p : from) {
+    double nearest = INFINITY;
+    for (const Eigen::Vector2d& q : to) nearest = std::min(nearest, (p - q).norm());
+    farthest = std::max(farthest, nearest);
   }
-  return out;
+  return farthest;
 }
 
 // Whether every point of `a` lies within `tolerance` px of one of `b`'s and the other way round:
@@ -288,16 +286,7 @@ std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const
 // can tell them apart.
 bool SameOutline(const std::vector<Eigen::Vector2d>& a, const std::vector<Eigen::Vector2d>& b,
                  double tolerance) {
-  const auto covered = [tolerance](const std::vector<Eigen::Vector2d>& from,
-                                   const std::vector<Eigen::Vector2d>& to) {
-    for (const Eigen::Vector2d& p : from) {
-      double nearest = INFINITY;
-      for (const Eigen::Vector2d& q : to) nearest = std::min(nearest, (p - q).norm());
-      if (!(nearest <= tolerance)) return false;
-    }
-    return true;
-  };
-  return !a.empty() && covered(a, b) && covered(b, a);
+  return !a.empty() && Farthest(a, b) <= tolerance && Farthest(b, a) <= tolerance;
 }
 
 // Whether two point sets cover the same part of the image: their bounding boxes share at least
@@ -357,9 +346,143 @@ TrackerOptions ForCandidates(TrackerOptions options, bool joints) {
   return options;
 }
 
+// Steps 2 and 3: every junction against every vertex of every shape, both ways round, each
+// P3P pose ranked; the poses that beat the best kRanked so far, best first.
+std::vector<Scored> RankedPoses(const std::vector<Shape>& shapes,
+                                const std::vector<Junction>& junctions, const Camera& camera,
+                                const EdgeOrientations& steps, const DetectorOptions& options,
+                                DetectionStats* stats) {
+  std::vector<Scored> scored;
+  // The best kRanked evidences so far (a min-heap): a pose that cannot beat the least of them
+  // is not ranked further, nor kept.
+  constexpr size_t kRanked = 300;
+  std::priority_queue<double, std::vector<double>, std::greater<double>> best;
+  // Every vertex where two edges meet, with its ordered pairs of neighbours.
+  struct Seed {
+    int shape, vertex;
+    std::array<Eigen::Vector3d, 3> object;  // neighbour, vertex, neighbour
+  };
+  std::vector<Seed> seeds;
+  for (size_t si = 0; si < shapes.size(); ++si) {
+    const Shape& s = shapes[si];
+    for (size_t v = 0; v < s.points.size(); ++v) {
+      const std::vector<int>& n = s.neighbours[v];
+      stats->vertices += n.size() >= 2;
+      for (size_t i = 0; i < n.size(); ++i) {
+        for (size_t k = 0; k < n.size(); ++k) {
+          if (i != k) {
+            seeds.push_back({static_cast<int>(si), static_cast<int>(v),
+                             {s.points[n[i]], s.points[v], s.points[n[k]]}});
+          }
+        }
+      }
+    }
+  }
+  for (int j = 0; j < static_cast<int>(junctions.size()); ++j) {
+    const std::vector<Eigen::Vector2d> ends0 =
+        ArmEnds(junctions, j, 0, options.junctions, options.max_arm_ends);
+    const std::vector<Eigen::Vector2d> ends1 =
+        ArmEnds(junctions, j, 1, options.junctions, options.max_arm_ends);
+    for (const Eigen::Vector2d& end1 : ends1) {
+      for (const Eigen::Vector2d& end0 : ends0) {
+        const std::array<Eigen::Vector2d, 3> image_points = {end0, junctions[j].corner, end1};
+        for (const Seed& seed : seeds) {
+          const Shape& s = shapes[seed.shape];
+          for (const Rigid3d& pose : PosesFromThreeProjections(camera, seed.object, image_points)) {
+            if (++stats->poses > options.max_poses) {
+              stats->poses = options.max_poses;
+              stats->poses_cut = true;
+              return scored;
+            }
+            double evidence = 0;
+            const double floor = best.size() < kRanked ? 0.0 : best.top();
+            if (!Rank(s, pose, camera, steps, options, &evidence, floor) ||
+                !(evidence > floor)) {
+              continue;
+            }
+            best.push(evidence);
+            if (best.size() > kRanked) best.pop();
+            scored.push_back({pose, seed.shape, seed.vertex, j, evidence,
+                              camera.Project<double>(pose * s.centroid)});
+          }
+        }
+      }
+    }
+  }
+  return scored;
+}
+
+// The best poses, spread apart: a pose whose points' images each lie within spread_pixels of one
+// of those of a pose kept is the same hypothesis again. `scored` best first.
+std::vector<const Scored*> SpreadApart(const std::vector<Scored>& scored,
+                                       const std::vector<Shape>& shapes, const Camera& camera,
+                                       const DetectorOptions& options) {
+  std::vector<const Scored*> kept;
+  std::vector<std::vector<Eigen::Vector2d>> kept_points;
+  for (const Scored& p : scored) {
+    if (static_cast<int>(kept.size()) >= options.max_candidates) break;
+    std::vector<Eigen::Vector2d> points;
+    for (const Eigen::Vector3d& x : shapes[p.shape].points) {
+      points.push_back(camera.Project<double>(p.camera_from_component * x));
+    }
+    bool near = false;
+    for (size_t k = 0; k < kept.size() && !near; ++k) {
+      near = kept[k]->shape == p.shape &&
+             (kept[k]->centroid - p.centroid).norm() < options.spread_pixels &&
+             Farthest(points, kept_points[k]) < options.spread_pixels;
+    }
+    if (!near) {
+      kept.push_back(&p);
+      kept_points.push_back(std::move(points));
+    }
+  }
+  return kept;
+}
+
+// One answer: a verified frame, the points' images it draws, and the other poses verified that
+// draw the same outline from elsewhere (the model's symmetry).
+struct Answer {
+  const TrackedFrame* frame;
+  std::vector<Eigen::Vector2d> outline;
+  std::vector<Values> twins;
+};
+
+// The verified frames (best first) as distinct answers: frames at the same place, or drawing the
+// same outline, are one.
+std::vector<Answer> DistinctAnswers(const ConstraintGraph& graph, const Camera& camera,
+                                    const std::vector<TrackedFrame>& verified) {
+  std::vector<Answer> answers;
+  for (const TrackedFrame& f : verified) {
+    std::vector<Eigen::Vector2d> points = ProjectedPoints(graph, camera, f.estimate.mean);
+    bool same = false;
+    for (Answer& a : answers) {
+      if (SamePlace(graph, f.estimate.mean, a.frame->estimate.mean)) {
+        same = true;
+      } else if (SameOutline(points, a.outline, kSameOutlinePixels)) {
+        same = true;
+        bool known = false;
+        for (const Values& t : a.twins) known = known || SamePlace(graph, f.estimate.mean, t);
+        if (!known) a.twins.push_back(f.estimate.mean);
+      }
+      if (same) break;
+    }
+    if (!same) answers.push_back({&f, std::move(points), {}});
+  }
+  return answers;
+}
+
 }  // namespace
 
-double ExplainedEvidence(const Verification& v) { return v.supported - v.chance * v.samples; }
+std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const Camera& camera,
+                                            const Values& values) {
+  std::vector<Eigen::Vector2d> out;
+  for (const Component& c : graph.components) {
+    if (!c.rigid) continue;
+    const Rigid3d& pose = values.poses[graph.blocks[c.block].index];
+    for (const FeaturePoint& p : c.points) out.push_back(camera.Project<double>(pose * p.position));
+  }
+  return out;
+}
 
 Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
                  const DetectorOptions& options, const std::vector<ImageSegment>* segments) {
@@ -388,106 +511,23 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
   const EdgeOrientations steps(image, options.orientations);
   out.stats.orientation_ms = Ms(start);
 
-  // Every junction against every vertex, both ways round, each P3P pose ranked.
   start = Clock::now();
-  std::vector<Scored> scored;
-  // The best kRanked evidences so far (a min-heap): a pose that cannot beat the least of them
-  // is not ranked further, nor kept.
-  constexpr size_t kRanked = 300;
-  std::priority_queue<double, std::vector<double>, std::greater<double>> best;
   const int junctions =
       std::min<int>(static_cast<int>(out.junctions.size()), options.max_junctions);
   out.stats.junctions_cut = junctions < static_cast<int>(out.junctions.size());
-  for (const Shape& s : shapes) {
-    for (const auto& n : s.neighbours) out.stats.vertices += n.size() >= 2;
-  }
-  const std::vector<Junction> seeds(out.junctions.begin(), out.junctions.begin() + junctions);
-  for (int j = 0; j < junctions && !out.stats.poses_cut; ++j) {
-    const Junction& junction = out.junctions[j];
-    const std::vector<Eigen::Vector2d> ends0 =
-        ArmEnds(seeds, j, 0, options.junctions, options.max_arm_ends);
-    const std::vector<Eigen::Vector2d> ends1 =
-        ArmEnds(seeds, j, 1, options.junctions, options.max_arm_ends);
-    for (size_t e = 0; e < ends0.size() * ends1.size() && !out.stats.poses_cut; ++e) {
-    const std::array<Eigen::Vector2d, 3> image_points = {ends0[e % ends0.size()], junction.corner,
-                                                         ends1[e / ends0.size()]};
-    for (size_t si = 0; si < shapes.size() && !out.stats.poses_cut; ++si) {
-      const Shape& s = shapes[si];
-      for (size_t v = 0; v < s.points.size() && !out.stats.poses_cut; ++v) {
-        const std::vector<int>& n = s.neighbours[v];
-        for (size_t i = 0; i < n.size(); ++i) {
-          for (size_t k = 0; k < n.size(); ++k) {
-            if (i == k) continue;
-            const std::array<Eigen::Vector3d, 3> object = {s.points[n[i]], s.points[v],
-                                                           s.points[n[k]]};
-            for (const Rigid3d& pose : PosesFromThreeProjections(camera, object, image_points)) {
-              if (++out.stats.poses > options.max_poses) {
-                out.stats.poses_cut = true;
-                break;
-              }
-              double evidence = 0;
-              const double floor = best.size() < kRanked ? 0.0 : best.top();
-              if (!Rank(s, pose, camera, steps, options, &evidence, floor) ||
-                  !(evidence > floor)) {
-                continue;
-              }
-              best.push(evidence);
-              if (best.size() > kRanked) best.pop();
-              Scored p;
-              p.camera_from_component = pose;
-              p.shape = static_cast<int>(si);
-              p.vertex = static_cast<int>(v);
-              p.junction = j;
-              p.evidence = evidence;
-              const Eigen::Vector3d centre = pose * s.centroid;
-              p.centroid = camera.Project(centre);
-              p.depth = centre.z();
-              scored.push_back(p);
-            }
-          }
-        }
-      }
-    }
-    }
-  }
-  out.stats.poses = std::min(out.stats.poses, options.max_poses);
+  std::vector<Scored> scored =
+      RankedPoses(shapes, {out.junctions.begin(), out.junctions.begin() + junctions}, camera,
+                  steps, options, &out.stats);
   std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) {
     if (a.evidence != b.evidence) return a.evidence > b.evidence;
     if (a.junction != b.junction) return a.junction < b.junction;
     if (a.shape != b.shape) return a.shape < b.shape;
     return a.vertex < b.vertex;
   });
-  // The best, spread apart: a pose whose outline lies near one kept is the same hypothesis again.
-  std::vector<const Scored*> kept;
-  std::vector<std::vector<Eigen::Vector2d>> kept_points;
-  for (const Scored& p : scored) {
-    if (static_cast<int>(kept.size()) >= options.max_candidates) break;
-    std::vector<Eigen::Vector2d> points;
-    for (const Eigen::Vector3d& x : shapes[p.shape].points) {
-      points.push_back(camera.Project<double>(p.camera_from_component * x));
-    }
-    bool near = false;
-    for (size_t k = 0; k < kept.size() && !near; ++k) {
-      if (kept[k]->shape != p.shape ||
-          (kept[k]->centroid - p.centroid).norm() >= options.spread_pixels) {
-        continue;
-      }
-      double farthest = 0;
-      for (const Eigen::Vector2d& a : points) {
-        double nearest = INFINITY;
-        for (const Eigen::Vector2d& b : kept_points[k]) nearest = std::min(nearest, (a - b).norm());
-        farthest = std::max(farthest, nearest);
-      }
-      near = farthest < options.spread_pixels;
-    }
-    if (!near) {
-      kept.push_back(&p);
-      kept_points.push_back(std::move(points));
-    }
-  }
+  const std::vector<const Scored*> kept = SpreadApart(scored, shapes, camera, options);
   out.stats.ranking_ms = Ms(start);
 
-  // Each candidate tracked on this image; the verified ones, best first, settled.
+  // Step 4: each candidate tracked on this image.
   start = Clock::now();
   bool joints = false;
   for (const Joint& joint : graph.joints) joints = joints || HasJointVariable(joint.type);
@@ -504,7 +544,6 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
                           c.component, camera, steps, options);
     Tracker tracker(graph, camera, c.values, quick);
     c.frame = tracker.Track(image);
-    c.tracked = true;
     ++out.stats.candidates;
     if (c.frame.verified) verified.push_back(c.frame);
     out.candidates.push_back(std::move(c));
@@ -513,79 +552,59 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
                    [](const TrackedFrame& a, const TrackedFrame& b) {
                      return ExplainedEvidence(a.verification) > ExplainedEvidence(b.verification);
                    });
-  std::vector<const TrackedFrame*> distinct;
-  std::vector<std::vector<Values>> twins;  // per distinct pose: others drawing its outline
-  std::vector<std::vector<Eigen::Vector2d>> outline;  // per distinct pose: its points' images
-  for (const TrackedFrame& f : verified) {
-    const std::vector<Eigen::Vector2d> points = ProjectedPoints(graph, camera, f.estimate.mean);
-    bool same = false;
-    for (size_t g = 0; g < distinct.size() && !same; ++g) {
-      if (SamePlace(graph, f.estimate.mean, distinct[g]->estimate.mean)) {
-        same = true;
-      } else if (SameOutline(points, outline[g], kSameOutlinePixels)) {
-        same = true;
-        bool known = false;
-        for (const Values& t : twins[g]) known = known || SamePlace(graph, f.estimate.mean, t);
-        if (!known) twins[g].push_back(f.estimate.mean);
-      }
-    }
-    if (!same) {
-      distinct.push_back(&f);
-      twins.emplace_back();
-      outline.push_back(points);
-    }
-  }
+  const std::vector<Answer> answers = DistinctAnswers(graph, camera, verified);
+
   // A pose is the object only when no other pose over the same part of the image explains
   // about as much of it (TrackerOptions::decisive_share, as the settling judges places): a
-  // model of repeated parts and parallel edges verifies a pose slid by one of them too.
-  std::string settled_why;
-  for (size_t i = 0; i < distinct.size(); ++i) {
+  // model of repeated parts and parallel edges verifies a pose slid by one of them too. Only the
+  // best can be the first object found; the others are further objects elsewhere.
+  std::string refused;  // why the first answer refused was
+  auto refuse = [&](const std::string& why) {
+    if (refused.empty()) refused = why;
+  };
+  for (size_t i = 0; i < answers.size(); ++i) {
     if (static_cast<int>(out.found.size()) >= options.max_results) break;
-    const TrackedFrame& f = *distinct[i];
+    if (i > 0 && out.found.empty()) break;
+    const Answer& a = answers[i];
     bool taken = false;  // by an object found already
     for (const TrackedFrame& g : out.found) {
-      taken = taken || Overlap(ProjectedPoints(graph, camera, g.estimate.mean), outline[i]);
+      taken = taken || Overlap(ProjectedPoints(graph, camera, g.estimate.mean), a.outline);
     }
     if (taken) continue;
-    const double evidence = ExplainedEvidence(f.verification);
-    const TrackedFrame* rival = nullptr;
-    for (size_t k = 0; k < distinct.size() && !rival; ++k) {
-      if (k != i && Overlap(outline[k], outline[i]) &&
-          Plainly(*distinct[k], options).empty() &&
-          options.tracker.decisive_share * ExplainedEvidence(distinct[k]->verification) >
+    const double evidence = ExplainedEvidence(a.frame->verification);
+    const Answer* rival = nullptr;
+    for (size_t k = 0; k < answers.size() && !rival; ++k) {
+      if (k != i && Overlap(answers[k].outline, a.outline) &&
+          Plainly(*answers[k].frame, options).empty() &&
+          options.tracker.decisive_share * ExplainedEvidence(answers[k].frame->verification) >
               evidence) {
-        rival = distinct[k];
+        rival = &answers[k];
       }
     }
-    if (rival || (i > 0 && out.found.empty())) {
-      // The best pose ambiguous: no lesser one can be the object instead.
-      if (i > 0 && out.found.empty()) break;
-      if (settled_why.empty()) {
-        settled_why = fmt::format(
-            "ambiguous: two poses {:.0f} mm apart explain the image about as well ({:.0f} and "
-            "{:.0f} samples beyond chance)",
-            1000 * (RootPose(graph, f.estimate.mean).translation -
-                    RootPose(graph, rival->estimate.mean).translation)
-                       .norm(),
-            evidence, ExplainedEvidence(rival->verification));
-      }
+    if (rival) {
+      refuse(fmt::format(
+          "ambiguous: two poses {:.0f} mm apart explain the image about as well ({:.0f} and "
+          "{:.0f} samples beyond chance)",
+          1000 * (RootPose(graph, a.frame->estimate.mean).translation -
+                  RootPose(graph, rival->frame->estimate.mean).translation)
+                     .norm(),
+          evidence, ExplainedEvidence(rival->frame->verification)));
       continue;
     }
-    std::string plain = Plainly(f, options);
-    if (!plain.empty()) {
-      if (settled_why.empty()) settled_why = plain;
-      if (out.found.empty()) break;
+    if (const std::string plain = Plainly(*a.frame, options); !plain.empty()) {
+      refuse(plain);
       continue;
     }
     // Settled as a tracker settles its first frame: tracked again from places about it.
-    Tracker tracker(graph, camera, f.estimate.mean, options.tracker);
+    Tracker tracker(graph, camera, a.frame->estimate.mean, options.tracker);
     TrackedFrame settled = tracker.Track(image);
-    plain = settled.verified ? Plainly(settled, options) : "";
-    if (settled.verified && plain.empty()) {
+    if (!settled.verified) {
+      refuse("refused when settled: " + settled.verification.why);
+    } else if (const std::string plain = Plainly(settled, options); !plain.empty()) {
+      refuse("refused when settled: " + plain);
+    } else {
       out.found.push_back(std::move(settled));
-      out.twins.push_back(twins[i]);
-    } else if (settled_why.empty()) {
-      settled_why = "refused when settled: " + (plain.empty() ? settled.verification.why : plain);
+      out.twins.push_back(a.twins);
     }
   }
   out.stats.tracking_ms = Ms(start);
@@ -597,8 +616,8 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
       out.why = fmt::format(
           "no pose from {} junctions and {} vertices explains more of the image than chance",
           junctions, out.stats.vertices);
-    } else if (!settled_why.empty()) {
-      out.why = settled_why;
+    } else if (!refused.empty()) {
+      out.why = refused;
     } else {
       const DetectionCandidate& best = out.candidates.front();
       out.why = fmt::format("none of {} candidates verified; the best ranked was refused: {}",

@@ -176,10 +176,6 @@ std::vector<Values> Tracker::JointPlaces(const Values& centre) const {
   return out;
 }
 
-double Tracker::Evidence(const Verification& v) {
-  return v.supported - v.chance * v.samples;
-}
-
 void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   std::vector<Values> places;
   for (int k = 0; k < options_.settle_places; ++k) {
@@ -196,15 +192,15 @@ void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   const double searched_outline = best_outline_;
   const std::optional<GaussianState> searched_undetermined = undetermined_;
   std::string ambiguous;  // a joint verified as well at a value far from the frame's
-  const double frame_evidence = Evidence(out->verification);
+  const double frame_evidence = ExplainedEvidence(out->verification);
   for (const Values& place : places) {
     TrackedFrame attempt = TryPlace(image, place);
     spent += attempt.times;
     branches += attempt.branches;
     if (!attempt.verified) continue;
-    const double evidence = Evidence(attempt.verification);
+    const double evidence = ExplainedEvidence(attempt.verification);
     if (evidence >= options_.decisive_share * frame_evidence) {
-      if (!best || evidence > Evidence(best->verification)) {
+      if (!best || evidence > ExplainedEvidence(best->verification)) {
         best = std::move(attempt);
       }
       continue;

@@ -210,4 +210,6 @@ void Remember(const Verification& verification, EdgeAppearance* appearance) {
   appearance->Commit();
 }
 
+double ExplainedEvidence(const Verification& v) { return v.supported - v.chance * v.samples; }
+
 }  // namespace cfuse

@@ -69,10 +69,10 @@ struct DetectorOptions {
   double spread_pixels = 10;
   // A found pose, searched for among thousands with no prior to hold it, must show the object
   // more plainly than a tracked frame: its outline supported beyond chance's share by at least
-  // `min_margin`, and at least `min_dominant` of it dominated by its edges (verification.h). On a
-  // textured scene a pose among thousands fits the texture as well as a tracked frame's tests ask.
-  // ... and its pose must rest on at least `min_matches` matched edges (a printed square on a
-  // face, four edges, fits a box's outline there).
+  // `min_margin`, at least `min_dominant` of it dominated by its edges (verification.h), and its
+  // pose resting on at least `min_matches` matched edges. On a textured scene a pose among
+  // thousands fits the texture as well as a tracked frame's tests ask, and a printed square on a
+  // face (four edges) fits a box's outline there.
   double min_margin = 0.5;
   double min_dominant = 0.6;
   int min_matches = 6;
@@ -86,8 +86,7 @@ struct DetectionCandidate {
   int vertex = -1;         // its point matched to the junction's corner
   int junction = -1;       // index into Detection::junctions
   double evidence = 0;     // samples supported beyond chance
-  TrackedFrame frame;      // tracked from `values` (when tracked)
-  bool tracked = false;
+  TrackedFrame frame;      // tracked from `values`
 };
 
 struct DetectionStats {
@@ -104,10 +103,10 @@ struct Detection {
   // Verified objects, the most of the image explained first (at most max_results).
   std::vector<TrackedFrame> found;
   // Per object found: the other poses verified that draw the same outline (each model point's
-  // image within 2 px of one of the other's) from elsewhere, the model's symmetry (a box turned half round): the image cannot tell them from
-  // the one reported.
+  // image within 2 px of one of the other's) from elsewhere, the model's symmetry (a box turned
+  // half round): the image cannot tell them from the one reported.
   std::vector<std::vector<Values>> twins;
-  // Candidates in ranking order, tracked or not: what was tried and why it was refused.
+  // The candidates tracked, in ranking order: what was tried and why it was refused.
   std::vector<DetectionCandidate> candidates;
   std::vector<ImageSegment> segments;
   std::vector<Junction> junctions;
@@ -117,15 +116,15 @@ struct Detection {
 };
 
 // Throws InputError (its location left to the caller) for a camera without a size or one of
-// another size than the image, a model without edges, or an empty image.
-// `segments`: the image's segments from a detector of the caller's, instead of DetectSegments
-// with options.segments.
+// another size than the image, a model without edges, or an empty image. `segments`: the image's
+// segments from a detector of the caller's, instead of DetectSegments with options.segments.
 Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
                  const DetectorOptions& options = {},
                  const std::vector<ImageSegment>* segments = nullptr);
 
-// What a verified frame explains of the image: its outline's samples supported beyond what
-// chance gives beside its edges (the tracker's settling compares poses by it).
-double ExplainedEvidence(const Verification& verification);
+// Where `values` projects every rigid component's points (pixels): what the detector compares
+// poses by, symmetric twins included.
+std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const Camera& camera,
+                                            const Values& values);
 
 }  // namespace cfuse

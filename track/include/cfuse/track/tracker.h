@@ -111,7 +111,7 @@ struct TrackerOptions {
   // tracked again from places about its estimate: `settle_places` on a ring, `settle_depths`
   // along the line of sight, and each joint at `settle_joint_values` values across its limits.
   // A pose verified there that explains `decisive_share` times as much of the image
-  // (Tracker::Evidence) replaces the frame's; one that explains about as much with a joint far
+  // (ExplainedEvidence, verification.h) replaces the frame's; one that explains about as much with a joint far
   // from the frame's makes the frame ambiguous, and it is refused.
   int settle_places = 4;
   int settle_depths = 2;
@@ -132,13 +132,17 @@ struct TrackerOptions {
 struct FrameTimes {
   double segments = 0;  // edge evidence: normal search or segment detection
   double prediction = 0, search = 0, estimation = 0, verification = 0;
-  double Total() const { return segments + prediction + search + estimation + verification; }
+  double detection = 0;  // with no pose to track from (auto_tracker.h)
+  double Total() const {
+    return segments + prediction + search + estimation + verification + detection;
+  }
   FrameTimes& operator+=(const FrameTimes& more) {
     segments += more.segments;
     prediction += more.prediction;
     search += more.search;
     estimation += more.estimation;
     verification += more.verification;
+    detection += more.detection;
     return *this;
   }
 };
@@ -232,10 +236,6 @@ class Tracker {
   // points at their RMS radius, or its shift, at the child's depth).
   double JointValue(const Joint& joint, const Values& values) const;
   double JointPixels(const Joint& joint, const Values& values) const;
-  // What a verified pose explains of the image: its outline's samples supported beyond what
-  // chance gives beside its edges. A lid found shut on the box's rim has as large a share of its
-  // outline supported as the lid standing open behind it, but explains less of the image.
-  static double Evidence(const Verification& v);
   // A frame verified with nothing verified before it, replaced by a decisively better pose
   // verified from places about its estimate (TrackerOptions::settle_places).
   void Settle(const GrayView& image, TrackedFrame* out);

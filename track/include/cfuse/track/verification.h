@@ -112,6 +112,12 @@ Verification VerifyOutline(const GrayView& image, const std::vector<EdgeModel>& 
                            const VerificationOptions& options,
                            const std::vector<ModelLine>& model = {});
 
+// What a verified pose explains of the image: its outline's samples supported beyond what chance
+// gives beside its edges. A lid found shut on the box's rim has as large a share of its outline
+// supported as the lid standing open behind it, but explains less of the image; a pose slid by one
+// of a model's repeated parts explains less than the right one.
+double ExplainedEvidence(const Verification& verification);
+
 // Records a verified frame's steps in `appearance` and commits them.
 void Remember(const Verification& verification, EdgeAppearance* appearance);
 
