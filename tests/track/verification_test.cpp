@@ -41,6 +41,18 @@ std::vector<ModelLine> Lines(const ConstraintGraph& graph, const Values& values)
   return out;
 }
 
+TEST_CASE("verification: what a pose explains is its supported samples less chance's share",
+          "[verification]") {
+  Verification v;
+  v.samples = 200;
+  v.supported = 150;
+  v.chance = 0.1;
+  CHECK(ExplainedEvidence(v) == Approx(130));
+  // As many samples supported as chance gives: nothing explained.
+  v.supported = 20;
+  CHECK(ExplainedEvidence(v) == Approx(0).margin(1e-12));
+}
+
 TEST_CASE("verification: a lid shut on the rim is not seen on its own", "[verification]") {
   const ConstraintGraph graph =
       LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
