@@ -29,6 +29,7 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/error.h"
 #include "cfuse/kernel/evaluate.h"
+#include "cli/answers.h"
 #include "cli/command_support.h"
 #include "cli/results.h"
 #include "cli/summary.h"
@@ -36,76 +37,10 @@
 namespace cfuse::cli {
 namespace {
 
-// "; farthest from holding: 'NAME' (FORMULA) at FILE:LINE:COLUMN, residual R", the constraint
-// with the largest residual at `values`, or "" if none has one.
-std::string FarthestConstraint(const ConstraintGraph& graph, const Values& values) {
-  const Constraint* worst = nullptr;
-  double largest = 0;
-  Eigen::VectorXd r;
-  for (const Constraint& c : graph.constraints) {
-    EvaluateResidual(*c.residual, graph.blocks, c.blocks, values, &r, nullptr);
-    const double size = r.allFinite() ? r.lpNorm<Eigen::Infinity>() : INFINITY;
-    if (size > largest) {
-      worst = &c;
-      largest = size;
-    }
-  }
-  if (!worst) return "";
-  return fmt::format("; farthest from holding: '{}' ({}) at {}, residual {:.3g}", worst->name,
-                     graph.Describe(*worst), worst->where.ToString(), largest);
-}
-
-// "cfuse: the measurements do not fit ...": why a solution whose fit is refused is refused.
-std::string FitRefusal(const Solution& solution) {
-  const Fit& fit = solution.analysis.fit;
-  return fmt::format(
-      "cfuse: the measurements do not fit the estimate: chi-square {:.4g} over {} degrees of "
-      "freedom (p {}, below 1e-3): a wrong match, a wrong model or noise larger than stated",
-      fit.chi2, fit.dof,
-      fit.p_value < 1e-15 ? std::string("< 1e-15") : fmt::format("= {:.2g}", fit.p_value));
-}
-
-// A warning naming what the data leave free: its pose in the result is the start's, not the
-// data's.
-void ReportUndetermined(const Solution& solution, std::ostream& err) {
-  if (solution.undetermined.empty()) return;
-  std::string names;
-  for (const std::string& n : solution.undetermined) names += (names.empty() ? "" : ", ") + n;
-  err << fmt::format(
-      "cfuse: warning: the measurements and constraints leave {} direction{} undetermined, "
-      "moving {}: their values are the start's, not the data's\n",
-      solution.analysis.model_dof - solution.analysis.determined,
-      solution.analysis.model_dof - solution.analysis.determined == 1 ? "" : "s", names);
-}
-
-// The exit status of a solution whose result is written: 1 when its constraints do not hold
-// or its measurements do not fit (why on stderr), else 0, with a warning naming what the data
-// leave free.
-int Verdict(const ConstraintGraph& graph, const Solution& solution, std::ostream& err) {
-  ReportUndetermined(solution, err);
-  if (!solution.summary.converged) {
-    err << fmt::format("cfuse: the constraints hold only to {:.3g} after {} passes{}\n",
-                       solution.summary.max_constraint_residual, solution.summary.passes,
-                       FarthestConstraint(graph, solution.state.mean));
-    return 1;
-  }
-  if (!solution.alternatives.empty() && solution.fits) {
-    std::string fits;
-    for (const Solution::Alternative& a : solution.alternatives) {
-      fits += fmt::format("{}chi-square {:.4g} (p = {:.2g})", fits.empty() ? "" : ", ", a.fit.chi2,
-                          a.fit.p_value);
-    }
-    err << fmt::format(
-        "cfuse: warning: the measurements fit {} other solution{} about as well ({}; this one "
-        "{:.4g}): the data do not decide between them (\"alternatives\" in the result)\n",
-        solution.alternatives.size(), solution.alternatives.size() == 1 ? "" : "s", fits,
-        solution.analysis.fit.chi2);
-  }
-  if (!solution.fits) {
-    err << FitRefusal(solution) << "\n";
-    return 1;
-  }
-  return 0;
+// Says a verdict's lines on `err`, each as the program's message; returns its status.
+int Say(const Verdict& verdict, std::ostream& err) {
+  for (const std::string& line : verdict.lines) err << "cfuse: " << line << "\n";
+  return verdict.status;
 }
 
 }  // namespace
@@ -172,66 +107,19 @@ int RunSolve(const SolveCommandOptions& options, std::ostream& out, std::ostream
     if (!options.output.empty()) RequireWritable(options.output);
     const ConstraintGraph graph = LoadAnyModel(options.model);
     const MeasurementSet set = ReadMeasurements(options.measurements);
-    if (std::none_of(set.points.begin(), set.points.end(),
-                     [](const MeasuredPoint& p) { return !p.label.empty(); })) {
-      throw InputError(SourceLocation(options.measurements),
-                       "no labelled points: solve needs labels (unlabelled points are for "
-                       "`cfuse interpret`)");
-    }
     std::optional<PoseSet> guess;
     if (!options.guess.empty()) guess = ReadPoses(options.guess);
-    const auto start = std::chrono::steady_clock::now();
-    Solution solution;
-    std::optional<double> residual_variance;
-    if (options.method == "parametric") {
-      ParametricOptions parametric;
-      parametric.guess = guess ? &*guess : nullptr;
-      ParametricSolution p = SolveParametric(graph, set, parametric);
-      solution = std::move(p.solution);
-      residual_variance = p.residual_variance;
-    } else {
-      SolveOptions solve_options;
-      solve_options.guess = guess ? &*guess : nullptr;
-      solve_options.use_constraints_between_components = options.method != "components";
-      solve_options.reject_outliers = true;
-      solution = Solve(graph, set, solve_options);
-    }
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    nlohmann::json result = SolutionJson(graph, set, solution, ms);
-    result["status"]["method"] = options.method;
-    if (residual_variance) {
-      result["status"]["residual_variance"] =
-          std::isfinite(*residual_variance) ? nlohmann::json(*residual_variance) : nlohmann::json();
-    }
-    const std::string text = JsonText(result, 2) + "\n";
+    const SolveAnswer answer = SolveAndJudge(graph, set, options.method, guess ? &*guess : nullptr);
+    const std::string text = JsonText(answer.result, 2) + "\n";
     if (options.output.empty()) {
       out << text;
     } else {
       WriteFileAtomically(options.output, text);
     }
-    for (const Solution::Rejection& r : solution.rejected) {
-      err << fmt::format(
-          "cfuse: warning: measurement {} ({}) left out as an outlier: {:.3g} standard "
-          "deviations from the estimate\n",
-          r.measurement, set.points[r.measurement].label, r.sigmas);
-    }
-    if (!solution.invalid.empty()) {
-      std::string what;
-      for (const std::string& n : solution.invalid) what += (what.empty() ? "" : "; ") + n;
-      err << fmt::format("cfuse: not fused, its residual not finite: {}\n", what);
-      return 1;
-    }
-    if (!solution.contradictions.empty()) {
-      std::string names;
-      for (const std::string& n : solution.contradictions) names += (names.empty() ? "" : ", ") + n;
-      err << fmt::format("cfuse: contradictory constraints or measurements, not fused: {}\n",
-                         names);
-      return 1;
-    }
-    return Verdict(graph, solution, err);
+    return Say(answer.verdict, err);
   });
 }
+
 
 int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
@@ -243,51 +131,19 @@ int RunInterpret(const InterpretCommandOptions& options, std::ostream& out, std:
     InterpretOptions interpret;
     interpret.gate_confidence = options.gate;
     interpret.max_nodes = options.max_nodes;
-    const auto start = std::chrono::steady_clock::now();
-    const Interpretation in = Interpret(graph, set, interpret);
-    const double ms =
-        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-    if (!in.solution) {
-      err << fmt::format(
-          "cfuse: no interpretation: no measurement matches a model point ({} of {} nodes, {})\n",
-          in.stats.nodes, options.max_nodes, StatusName(in.stats.status));
-      return 1;
-    }
-    nlohmann::json result = SolutionJson(graph, set, *in.solution, ms);
-    result["search"] = {{"status", StatusName(in.stats.status)},
-                        {"nodes", in.stats.nodes},
-                        {"nodes_expanded", in.stats.expanded},
-                        {"backtracks", in.stats.backtracks},
-                        {"levels", in.stats.levels},
-                        {"seeds", in.stats.seeds},
-                        {"seeds_tried", in.stats.seeds_tried},
-                        {"refinements", in.stats.refinements},
-                        {"predicted", in.stats.predicted >= 0 ? nlohmann::json(in.stats.predicted)
-                                                              : nlohmann::json(nullptr)},
-                        {"matched", in.matched},
-                        {"total_delta", in.total_delta}};
-    const std::string text = JsonText(result, 2) + "\n";
+    const InterpretAnswer answer = InterpretAndJudge(graph, set, interpret);
+    if (answer.result.is_null()) return Say(answer.verdict, err);
+    const std::string text = JsonText(answer.result, 2) + "\n";
     // The tree and the result both, or neither.
     OutputFiles files;
-    if (!options.tree.empty()) files.Stage(options.tree, TreeDot(graph, in));
+    if (!options.tree.empty()) files.Stage(options.tree, TreeDot(graph, answer.interpretation));
     if (!options.output.empty()) files.Stage(options.output, text);
     files.Commit();
     if (options.output.empty()) out << text;
-    if (in.stats.status == SearchStats::Status::kBudget) {
-      err << fmt::format(
-          "cfuse: the node budget ({}) ended the search: the best interpretation "
-          "found so far is written\n",
-          options.max_nodes);
-    }
-    const int verdict = Verdict(graph, *in.solution, err);
-    if (verdict != 0) return verdict;
-    if (const std::string refusal = in.Refusal(); !refusal.empty()) {
-      err << "cfuse: no interpretation: " << refusal << "\n";
-      return 1;
-    }
-    return 0;
+    return Say(answer.verdict, err);
   });
 }
+
 
 int RunSimulate(const SimulateCommandOptions& options, std::ostream& out, std::ostream& err) {
   return Guarded(err, [&] {
@@ -351,54 +207,15 @@ int RunFk(const FkCommandOptions& options, std::ostream& out, std::ostream& err)
     const ConstraintGraph graph = LoadAnyModel(options.model);
     std::vector<JointValue> given;
     if (!options.joints.empty()) given = ReadJointValues(options.joints);
-    const std::map<std::string, double> q = CompleteJointValues(graph, given);
-    for (const Joint& j : graph.joints) {
-      const auto it = q.find(j.name);
-      if (!j.limits || it == q.end()) continue;
-      if (it->second < j.limits->first || it->second > j.limits->second) {
-        const bool angle = !ModelOf(j.type).VariableIsLength();
-        const double unit = angle ? 180 / M_PI : 1000;
-        err << fmt::format(
-            "cfuse: warning: joint '{}' at {:.6g} {} is beyond its limits [{:.6g}, "
-            "{:.6g}] {} ({})\n",
-            j.name, it->second * unit, angle ? "deg" : "mm", j.limits->first * unit,
-            j.limits->second * unit, angle ? "deg" : "mm", j.where.ToString());
-      }
-    }
-    const Values open = ForwardKinematics(graph, q);
-    Values values = open;
-    // A closed chain: the given joints held, the others moved until every equality holds.
-    std::map<std::string, double> held;
-    for (const JointValue& v : given) {
-      if (const int j = graph.FindJoint(v.name); j >= 0) {
-        held[graph.joints[j].name] = q.at(graph.joints[j].name);
-      }
-    }
-    if (!CloseLoops(graph, held, ModelExtent(graph), false, &values)) {
-      err << fmt::format("cfuse: the model's constraints cannot all hold at these joint values{}\n",
-                         FarthestConstraint(graph, values));
-      return 1;
-    }
-    nlohmann::json result = PosesJson(graph, values);
-    result["joints"] = nlohmann::json::object();
-    const bool moved = !std::equal(
-        open.poses.begin(), open.poses.end(), values.poses.begin(),
-        [](const Rigid3d& a, const Rigid3d& b) { return a.translation == b.translation; });
-    const Eigen::VectorXd taken = JointValues(graph, values);
-    int k = 0;
-    for (const Joint& j : graph.joints) {
-      if (!HasJointVariable(j.type)) continue;
-      // The values as given where nothing moved (no rounding through the poses).
-      result["joints"][j.name] = {{"value", moved ? taken[k] : q.at(j.name)}};
-      ++k;
-    }
-    const std::string text = JsonText(result, 2) + "\n";
+    const FkAnswer answer = ForwardKinematicsAndJudge(graph, given);
+    if (answer.verdict.status != 0) return Say(answer.verdict, err);
+    const std::string text = JsonText(answer.result, 2) + "\n";
     if (options.output.empty()) {
       out << text;
     } else {
       WriteFileAtomically(options.output, text);
     }
-    return 0;
+    return Say(answer.verdict, err);
   });
 }
 

@@ -134,7 +134,10 @@ Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
     for (Eigen::Vector3d& point : values.points) point = camera_from_object * point;
     return values;
   }
-  const PoseSet poses = ReadPoses(pose_file);
+  return PosedModel(graph, ReadPoses(pose_file), pose_file);
+}
+
+Values PosedModel(const ConstraintGraph& graph, const PoseSet& poses, const std::string& source) {
   Values values = graph.nominal;
   ApplyGuess(graph, poses, &values);
   std::set<int> placed;
@@ -147,7 +150,7 @@ Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file) {
   }
   for (size_t c = 0; c < graph.components.size(); ++c) {
     if (graph.components[c].rigid && !placed.count(static_cast<int>(c))) {
-      throw InputError(SourceLocation(pose_file),
+      throw InputError(SourceLocation(source),
                        fmt::format("no pose for component '{}' of model '{}' under "
                                    "'components'",
                                    graph.components[c].name, graph.name));

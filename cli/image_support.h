@@ -7,6 +7,7 @@
 
 #include "cfuse/constraints/graph.h"
 #include "cfuse/kernel/measurements/camera.h"
+#include "cfuse/kernel/pose_set.h"
 #include "cfuse/kernel/values.h"
 
 namespace cfuse::cli {
@@ -43,5 +44,7 @@ std::string PngBytes(const cv::Mat& image);
 // places the model's frame, every component at T ∘ its nominal pose and every single point at
 // T applied to its nominal position, so a model of several components moves rigidly.
 Values PosedModel(const ConstraintGraph& graph, const std::string& pose_file);
+// The same from poses already read; `source` names them in messages.
+Values PosedModel(const ConstraintGraph& graph, const PoseSet& poses, const std::string& source);
 
 }  // namespace cfuse::cli

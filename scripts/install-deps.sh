@@ -20,6 +20,10 @@ packages=(
   libvisp-mbt-dev      # (bench only: ViSP's edge tracker as a peer)
   visp-images-data     # ViSP's public sequences, models and cameras: tracking tests and benchmarks
   graphviz             # renders `cfuse graph` output in tests
+  python3-dev pybind11-dev  # the Python module (python/)
+  python3-numpy        # the Python module's arrays
+  python3-pytest       # the Python module's tests
+  python3-matplotlib   # docs/python.md's worked example (its picture)
 )
 if [ "${1:-}" = "--fuzz" ]; then
   packages+=(clang libclang-rt-14-dev)  # libFuzzer, with ASan and UBSan (scripts/fuzz.sh)

@@ -38,3 +38,12 @@ cmake -S "$work/consumer" -B "$work/consumer/build" -DCMAKE_PREFIX_PATH="$work/p
 cmake --build "$work/consumer/build" -j2 > "$work/build.log" || { cat "$work/build.log"; exit 1; }
 "$work/consumer/build/consumer" "$src/examples/lamp.yaml"
 test -x "$work/prefix/bin/cfuse"
+# The Python package, where it was built: imported by Debian's interpreter from elsewhere.
+if [ -z "$sanitize" ] && [ -d "$build/python/cfuse" ]; then
+  site=$(ls -d "$work"/prefix/lib/python3*/dist-packages)
+  (cd "$work" && PYTHONPATH="$site" /usr/bin/python3 -c "
+import sys, cfuse
+assert cfuse.__file__.startswith('$site'), cfuse.__file__
+print('python dof', cfuse.load_model(sys.argv[1]).dof)
+" "$src/examples/lamp.yaml")
+fi
