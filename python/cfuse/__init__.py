@@ -18,6 +18,7 @@ Bad input raises :class:`InputError` (a ValueError) with ``file``, ``line``, ``c
 """
 from __future__ import annotations
 
+import functools
 import os
 from typing import Any, Dict, List, Optional, Tuple, Union
 
@@ -99,7 +100,8 @@ class Fit:
         self.p_value = None if d.get("p_value") is None else float(d["p_value"])
 
     def __repr__(self) -> str:
-        return f"Fit(chi2={self.chi2:.4g}, dof={self.dof}, p_value={self.p_value})"
+        p = "None" if self.p_value is None else f"{self.p_value:.3g}"
+        return f"Fit(chi2={self.chi2:.4g}, dof={self.dof}, p_value={p})"
 
 
 class Poses:
@@ -107,16 +109,28 @@ class Poses:
     :class:`Point`) and ``joints`` (name -> :class:`Joint`), with ``to_dict()`` giving the
     CLI's JSON for the same answer."""
 
-    def __init__(self, d: Dict[str, Any]):
+    def __init__(self, d: Optional[Dict[str, Any]]):
         self._dict = d
-        covariances = d.get("covariance", {})
-        self.components: Dict[str, Pose] = {
-            name: Pose(p, covariances.get(name)) for name, p in d.get("components", {}).items()}
-        self.points: Dict[str, Point] = {n: Point(p) for n, p in d.get("points", {}).items()}
-        self.joints: Dict[str, Joint] = {n: Joint(j) for n, j in d.get("joints", {}).items()}
+        d = d or {}  # no answer at all (an interpretation that matched nothing)
 
-    def to_dict(self) -> Dict[str, Any]:
-        """The answer as the `cfuse` program writes it (docs/formats.md)."""
+    # Built on first use: a result's numpy arrays cost more than the call for a small model.
+    @functools.cached_property
+    def components(self) -> Dict[str, Pose]:
+        d = self._dict or {}
+        covariances = d.get("covariance", {})
+        return {name: Pose(p, covariances.get(name)) for name, p in d.get("components", {}).items()}
+
+    @functools.cached_property
+    def points(self) -> Dict[str, Point]:
+        return {n: Point(p) for n, p in (self._dict or {}).get("points", {}).items()}
+
+    @functools.cached_property
+    def joints(self) -> Dict[str, Joint]:
+        return {n: Joint(j) for n, j in (self._dict or {}).get("joints", {}).items()}
+
+    def to_dict(self) -> Optional[Dict[str, Any]]:
+        """The answer as the `cfuse` program writes it (docs/formats.md); None when there is
+        none (the program writes nothing)."""
         return self._dict
 
 
@@ -126,8 +140,9 @@ class Result(Poses):
     ``fit``, ``converged`` (right as far as the data can tell), ``status`` (why not, or
     "converged"), ``warnings`` (what the data leave open) and ``undetermined``."""
 
-    def __init__(self, d: Dict[str, Any], status: int, lines: List[str]):
+    def __init__(self, d: Optional[Dict[str, Any]], status: int, lines: List[str]):
         super().__init__(d)
+        d = d or {}
         self.matches: List[Optional[str]] = list(d.get("matches", []))
         self.fit = Fit(d.get("fit", {}))
         self.undetermined: List[str] = list(d.get("undetermined", []))

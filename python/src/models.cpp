@@ -76,8 +76,10 @@ Camera MakeCamera(double fx, double fy, double cx, double cy, int width, int hei
 
 void BindModels(py::module_& m) {
   py::class_<Model>(m, "Model", "A model: rigid components, single points, joints, constraints.")
-      .def_property_readonly("name", [](const Model& x) { return x.graph->name; })
-      .def_property_readonly("path", [](const Model& x) { return x.path; })
+      .def_property_readonly(
+          "name", [](const Model& x) { return x.graph->name; }, "The model's `name:`.")
+      .def_property_readonly(
+          "path", [](const Model& x) { return x.path; }, "The file it was loaded from.")
       .def_property_readonly(
           "dof", [](const Model& x) { return cli::Summarize(*x.graph).dof.dof; },
           "The degrees of freedom the constraints leave (rank of their Jacobian).")
@@ -142,17 +144,19 @@ void BindModels(py::module_& m) {
           py::arg("path"),
                   "A camera from any file `cfuse` reads: cfuse's camera YAML or JSON, ROS "
                   "camera_info, OpenCV calibration YAML or XML, ViSP's XML settings.")
-      .def_readonly("fx", &Camera::fx)
-      .def_readonly("fy", &Camera::fy)
-      .def_readonly("cx", &Camera::cx)
-      .def_readonly("cy", &Camera::cy)
-      .def_readonly("width", &Camera::width)
-      .def_readonly("height", &Camera::height)
+      .def_readonly("fx", &Camera::fx, "Focal length in pixels, x.")
+      .def_readonly("fy", &Camera::fy, "Focal length in pixels, y.")
+      .def_readonly("cx", &Camera::cx, "Principal point, x (pixels).")
+      .def_readonly("cy", &Camera::cy, "Principal point, y (pixels).")
+      .def_readonly("width", &Camera::width, "Image width in pixels; 0 when the file gives none.")
+      .def_readonly("height", &Camera::height, "Image height in pixels; 0 when none.")
       .def_property_readonly("dist",
                              [](const Camera& c) {
                                return std::vector<double>(c.distortion.begin(),
                                                           c.distortion.end());
-                             })
+                             },
+                             "The 12 distortion coefficients k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 "
+                             "s4 (zeros where none were given).")
       .def(
           "project",
           [](const Camera& c, const Eigen::Matrix<double, Eigen::Dynamic, 3>& xyz) {

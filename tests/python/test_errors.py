@@ -83,3 +83,63 @@ def test_images_refused(examples):
     lamp = cfuse.load_model(examples / "lamp.yaml")  # no edges
     with pytest.raises(cfuse.InputError):
         cfuse.Tracker(lamp, camera)
+
+
+@pytest.mark.parametrize("call", [
+    lambda m: cfuse.solve(None, None),
+    lambda m: cfuse.solve(m, "measurements.json"),
+    lambda m: cfuse.simulate(m, seed=-1),
+    lambda m: cfuse.fk(m, {"hinge": float("nan")}),
+    lambda m: cfuse.fk(m, {3: 1.0}),
+    lambda m: cfuse.solve(m, cfuse.Measurements(xyz=np.zeros((2, 3)), labels=["box.c000", None]),
+                          guess={"components": {"box": {"position": [0, 0], "quaternion": 1}}}),
+    lambda m: cfuse.Tracker(m, cfuse.Camera(600, 600, 320, 240, 640, 480), init="/no/such.json"),
+    lambda m: cfuse.Tracker(m, cfuse.Camera(600, 600, 320, 240, 640, 480), init={"x": object()}),
+    lambda m: cfuse.detect(m, cfuse.Camera(600, 600, 320, 240, 640, 480), "image.png"),
+    lambda m: cfuse.detect(m, cfuse.Camera(600, 600, 320, 240, 640, 480),
+                           np.zeros((480, 640), np.uint8), max_results=0),
+    lambda m: cfuse.Measurements(xyz="points"),
+    lambda m: cfuse.Measurements(uv=np.zeros((2, 2)), camera="camera.yaml"),
+    lambda m: cfuse.Camera.load(3),
+])
+def test_wrong_arguments_raise_and_the_interpreter_lives(examples, call):
+    """Wrong types and values: an exception (InputError, TypeError or ValueError), never a
+    crash; the interpreter goes on to the next case."""
+    box = cfuse.load_model(examples / "hinged-box.yaml")
+    with pytest.raises((cfuse.InputError, TypeError, ValueError, OverflowError)):
+        call(box)
+
+
+def test_interpret_releases_the_gil(examples):
+    """Another thread runs while interpret searches (an image interpretation of some 100 ms)."""
+    import threading
+    import time
+    box = cfuse.load_model(examples / "hinged-box.yaml")
+    camera = cfuse.Camera(600, 600, 320, 240, 640, 480)
+    measurements, _ = cfuse.simulate(box, seed=2, camera=camera, clutter=1)
+    ticks = []
+    done = threading.Event()
+
+    def count():
+        while not done.is_set():
+            ticks.append(time.perf_counter())
+            time.sleep(0.001)
+    thread = threading.Thread(target=count)
+    thread.start()
+    start = time.perf_counter()
+    cfuse.interpret(box, measurements)
+    elapsed = time.perf_counter() - start
+    done.set()
+    thread.join()
+    during = [t for t in ticks if start < t < start + elapsed]
+    assert elapsed > 0.02
+    # Held, the GIL would let the thread tick once or twice (Python's 5 ms switch interval
+    # does not apply inside a C++ call); released, it ticks about every millisecond.
+    assert len(during) > 0.3 * elapsed / 0.001
+
+
+def test_no_interpretation_is_an_answer_not_an_error(examples):
+    box = cfuse.load_model(examples / "hinged-box.yaml")
+    result = cfuse.interpret(box, cfuse.Measurements(xyz=np.zeros((0, 3))))
+    assert not result.converged and "no interpretation" in result.status
+    assert result.to_dict() is None and result.components == {} and result.matches == []
