@@ -257,10 +257,11 @@ class Tracker:
     """The model tracked over a sequence of images (`cfuse track`): ``init`` is the first
     frame's pose (a results file or ViSP .pos path, a dict in the results format, or a
     Result); without it the first frame is detected, as is any frame after the object has
-    been lost for two. Feed it frames with :meth:`track`."""
+    been lost for two. ``max_branches``: match sets tried per search range, as `cfuse track
+    --max-branches`. Feed it frames with :meth:`track`."""
 
-    def __init__(self, model: Model, camera: Camera, init: Any = None):
-        self._tracker = _cfuse._Tracker(model, camera, _poses_dict(init, "init"))
+    def __init__(self, model: Model, camera: Camera, init: Any = None, max_branches: int = 5):
+        self._tracker = _cfuse._Tracker(model, camera, _poses_dict(init, "init"), max_branches)
 
     def track(self, image: np.ndarray, order: str = "bgr") -> Frame:
         """One frame: a numpy uint8 image (H, W) grey, read in place, or (H, W, 3) colour

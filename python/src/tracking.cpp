@@ -104,9 +104,13 @@ std::optional<Values> Initial(const Model& model, const py::object& init) {
 // image's.
 class PyTracker {
  public:
-  PyTracker(Model model, Camera camera, const py::object& init)
+  PyTracker(Model model, Camera camera, const py::object& init, int max_branches)
       : model_(std::move(model)), camera_(std::move(camera)), initial_(Initial(model_, init)) {
     RequireEdges(model_);
+    if (max_branches < 1 || max_branches > 1000) {
+      throw InputError(SourceLocation("max_branches"), "must be in [1, 1000]");
+    }
+    options_.tracker.max_branches = max_branches;
     if (camera_.width > 0 && camera_.height > 0) Start();
   }
 
@@ -140,11 +144,12 @@ class PyTracker {
   }
 
  private:
-  void Start() { tracker_.emplace(*model_.graph, camera_, initial_); }
+  void Start() { tracker_.emplace(*model_.graph, camera_, initial_, options_); }
 
   Model model_;  // holds the graph the tracker refers to
   Camera camera_;
   std::optional<Values> initial_;
+  AutoTrackerOptions options_;
   std::optional<AutoTracker> tracker_;
   int frames_ = 0;
 };
@@ -153,8 +158,8 @@ class PyTracker {
 
 void BindTracking(py::module_& m) {
   py::class_<PyTracker>(m, "_Tracker")
-      .def(py::init<Model, Camera, py::object>(), py::arg("model"), py::arg("camera"),
-           py::arg("init"))
+      .def(py::init<Model, Camera, py::object, int>(), py::arg("model"), py::arg("camera"),
+           py::arg("init"), py::arg("max_branches"))
       .def("track", &PyTracker::Track, py::arg("image"), py::arg("order"))
       .def("skip", &PyTracker::Skip);
 

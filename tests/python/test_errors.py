@@ -101,6 +101,7 @@ def test_images_refused(examples):
     lambda m: cfuse.Measurements(xyz="points"),
     lambda m: cfuse.Measurements(uv=np.zeros((2, 2)), camera="camera.yaml"),
     lambda m: cfuse.Camera.load(3),
+    lambda m: cfuse.Tracker(m, cfuse.Camera(600, 600, 320, 240, 640, 480), max_branches=0),
 ])
 def test_wrong_arguments_raise_and_the_interpreter_lives(examples, call):
     """Wrong types and values: an exception (InputError, TypeError or ValueError), never a
