@@ -5,7 +5,8 @@
 e.g. ViSP's Castle-simu from Debian's visp-images-data:
 
     D=/usr/share/visp-images-data/ViSP-images/mbt-depth/Castle-simu
-    /usr/bin/python3 examples/python/track_folder.py $D/Models/chateau.cao $D/Config/chateau.xml $D/Images
+    /usr/bin/python3 examples/python/track_folder.py $D/Models/chateau.cao \
+        $D/Config/chateau.xml $D/Images
 """
 import argparse
 from pathlib import Path

@@ -30,7 +30,8 @@ from . import _cfuse
 
 __all__ = [
     "Camera", "InputError", "InternalError", "Measurements", "Model", "load_model",
-    "Pose", "Joint", "Point", "Fit", "Result", "Poses", "Frame", "Detection", "NoAnswerError",
+    "Pose", "Joint", "Point", "Fit", "Result", "Poses", "Truth", "Frame", "Detection",
+    "NoAnswerError",
     "simulate", "solve", "interpret", "fk", "Tracker", "detect",
 ]
 
@@ -134,6 +135,15 @@ class Poses:
         return self._dict
 
 
+class Truth(Poses):
+    """What :func:`simulate` measured: the poses and joints, and ``matches`` (per measurement:
+    the model point it measures, or None for clutter). ``to_dict()`` is the truth file."""
+
+    def __init__(self, d: Dict[str, Any]):
+        super().__init__(d)
+        self.matches: List[Optional[str]] = list(d.get("matches", []))
+
+
 class Result(Poses):
     """The answer of :func:`solve` or :func:`interpret`: the poses with covariances, the
     joints, ``matches`` (per measurement: the model point it was matched to, or None),
@@ -211,16 +221,14 @@ def _poses_dict(poses: Any, what: str) -> Any:
 def simulate(model: Model, seed: int = 0, noise: float = 0.002, clutter: float = 0.0,
              occlusion: float = 0.0, labels: bool = False, camera: Optional[Camera] = None,
              pixel_noise: float = 1.0, sample_joints: bool = False
-             ) -> Tuple[Measurements, Poses]:
+             ) -> Tuple[Measurements, Truth]:
     """Measurements of the model at a random pose, as `cfuse simulate` makes them: noise
     (metres; ``pixel_noise`` in pixels with a camera), clutter (extra points per real one),
     occlusion (the share of model points not measured), labels kept or not. Returns the
     measurements and the truth (its ``to_dict()`` is the truth file, with ``matches``)."""
     measurements, truth = _cfuse._simulate(model, seed, noise, pixel_noise, clutter, occlusion,
                                            labels, sample_joints, camera)
-    poses = Poses(truth)
-    poses.matches = truth.get("matches", [])  # type: ignore[attr-defined]
-    return measurements, poses
+    return measurements, Truth(truth)
 
 
 def solve(model: Model, measurements: Measurements, guess: Any = None,

@@ -99,9 +99,11 @@ void Fill(const py::array_t<double, py::array::c_style | py::array::forcecast>& 
   }
 }
 
+using Labels = std::vector<std::optional<std::string>>;
+
 MeasurementSet MakeMeasurements(const py::object& xyz, const py::object& uv,
                                 const py::object& sigma, const py::object& cov,
-                                const std::optional<std::vector<std::optional<std::string>>>& labels,
+                                const std::optional<Labels>& labels,
                                 const std::optional<Camera>& camera) {
   MeasurementSet set;
   set.source = kWhere;
@@ -123,8 +125,8 @@ MeasurementSet MakeMeasurements(const py::object& xyz, const py::object& uv,
   return set;
 }
 
-std::vector<std::optional<std::string>> Labels(const MeasurementSet& set) {
-  std::vector<std::optional<std::string>> out;
+Labels LabelsOf(const MeasurementSet& set) {
+  Labels out;
   for (const MeasuredPoint& p : set.points) {
     out.push_back(p.label.empty() ? std::nullopt : std::optional<std::string>(p.label));
   }
@@ -196,7 +198,7 @@ void BindMeasurements(py::module_& m) {
       .def_property_readonly("uv", &Rows<2>, "(N, 2) pixels; NaN rows for 3D points.")
       .def_property_readonly("cov", &Covariances,
                              "(N, 3, 3) or (N, 2, 2); a list when the kinds are mixed.")
-      .def_property_readonly("labels", &Labels)
+      .def_property_readonly("labels", &LabelsOf)
       .def_property_readonly("camera", [](const MeasurementSet& s) { return s.camera; })
       .def("to_dict", [](const MeasurementSet& s) { return ToPython(cli::MeasurementsJson(s)); },
            "The measurement file's content (docs/formats.md), as a dict.")

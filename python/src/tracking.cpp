@@ -44,7 +44,8 @@ GrayImage ToGray(const py::array& image, const std::string& order, const std::st
     return out;
   }
   // Any other layout: the array's own strides, copied into grey.
-  const py::ssize_t sy = image.strides(0), sx = image.strides(1), sc = colour ? image.strides(2) : 0;
+  const py::ssize_t sy = image.strides(0), sx = image.strides(1);
+  const py::ssize_t sc = colour ? image.strides(2) : 0;
   const auto* base = static_cast<const std::uint8_t*>(image.data());
   out.converted.create(height, width, CV_8UC1);
   for (int y = 0; y < height; ++y) {

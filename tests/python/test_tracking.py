@@ -50,7 +50,8 @@ def test_colour_and_strided_images_read_as_grey(castle):
     init = {"components": {"chateau": {"position": t.tolist(), "quaternion": quaternion(r)}}}
     reference = cfuse.Tracker(model, camera, init).track(grey).to_dict()
     for image, order in ((np.dstack([grey] * 3), "bgr"), (np.dstack([grey] * 3), "rgb"),
-                         (np.asfortranarray(grey), "bgr"), (np.dstack([grey, grey])[:, :, 0], "bgr")):
+                         (np.asfortranarray(grey), "bgr"),
+                         (np.dstack([grey, grey])[:, :, 0], "bgr")):
         frame = cfuse.Tracker(model, camera, init).track(image, order=order).to_dict()
         frame.pop("time_ms"), reference.pop("time_ms", None)
         assert frame == reference
