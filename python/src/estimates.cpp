@@ -39,7 +39,8 @@ void BindEstimates(py::module_& m) {
         }
         return Answer(answer.result, answer.verdict);
       },
-      py::arg("model"), py::arg("measurements"), py::arg("guess"), py::arg("method"));
+      py::arg("model"), py::arg("measurements"), py::arg("guess"), py::arg("method"),
+      "cfuse.solve's work: (the result's dict, the exit status, the verdict's lines).");
 
   m.def(
       "_interpret",
@@ -58,7 +59,8 @@ void BindEstimates(py::module_& m) {
         }
         return Answer(answer.result, answer.verdict);
       },
-      py::arg("model"), py::arg("measurements"), py::arg("gate"), py::arg("max_nodes"));
+      py::arg("model"), py::arg("measurements"), py::arg("gate"), py::arg("max_nodes"),
+      "cfuse.interpret's work: (the result's dict or None, the exit status, the lines).");
 }
 
 }  // namespace cfuse::python

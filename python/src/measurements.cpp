@@ -245,7 +245,7 @@ void BindMeasurements(py::module_& m) {
       },
       py::arg("model"), py::arg("seed"), py::arg("noise"), py::arg("pixel_noise"),
       py::arg("clutter"), py::arg("occlusion"), py::arg("labels"), py::arg("sample_joints"),
-      py::arg("camera"));
+      py::arg("camera"), "cfuse.simulate's work: (measurements, the truth's dict).");
 }
 
 }  // namespace cfuse::python

@@ -132,7 +132,8 @@ void BindModels(py::module_& m) {
         return py::make_tuple(ToPython(answer.result), answer.verdict.status,
                               py::cast(answer.verdict.lines));
       },
-      py::arg("model"), py::arg("joints"));
+      py::arg("model"), py::arg("joints"),
+      "cfuse.fk's work: (the poses' dict, the exit status, the verdict's lines).");
 
   py::class_<Camera>(m, "Camera", "A pinhole camera (OpenCV's distortion model).")
       .def(py::init(&MakeCamera), py::arg("fx"), py::arg("fy"), py::arg("cx"), py::arg("cy"),

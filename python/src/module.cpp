@@ -96,6 +96,10 @@ PYBIND11_MODULE(_cfuse, m) {
   static py::exception<cfuse::InputError> input_error(m, "InputError", PyExc_ValueError);
   static py::exception<cfuse::InternalError> internal_error(m, "InternalError",
                                                             PyExc_RuntimeError);
+  input_error.attr("__doc__") =
+      "Bad input: a ValueError naming the place. Attributes: file, line and column (0 when "
+      "unknown), element (\"\" when unknown) and message (without the location).";
+  internal_error.attr("__doc__") = "A bug in cfuse (a broken internal contract): please report it.";
   py::register_exception_translator([](std::exception_ptr p) {
     try {
       if (p) std::rethrow_exception(p);

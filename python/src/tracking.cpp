@@ -158,7 +158,7 @@ class PyTracker {
 }  // namespace
 
 void BindTracking(py::module_& m) {
-  py::class_<PyTracker>(m, "_Tracker")
+  py::class_<PyTracker>(m, "_Tracker", "cfuse.Tracker's work: frames as dicts.")
       .def(py::init<Model, Camera, py::object, int>(), py::arg("model"), py::arg("camera"),
            py::arg("init"), py::arg("max_branches"))
       .def("track", &PyTracker::Track, py::arg("image"), py::arg("order"))
@@ -182,7 +182,7 @@ void BindTracking(py::module_& m) {
         return ToPython(cli::DetectionJson(*model.graph, d, "<array>"));
       },
       py::arg("model"), py::arg("camera"), py::arg("image"), py::arg("max_results"),
-      py::arg("order"));
+      py::arg("order"), "cfuse.detect's work: the detection's dict.");
 }
 
 }  // namespace cfuse::python

@@ -156,3 +156,25 @@ def test_image_points_with_covariances_and_interpretation(examples):
     box_pose = result.components["box"]
     sigma = np.sqrt(np.diag(box_pose.covariance)[3:])
     assert np.all(np.abs(box_pose.position - truth.components["box"].position) < 5 * sigma)
+
+
+def test_urdf_and_cao_models(examples, cli, tmp_path):
+    arm = cfuse.load_model(examples.parent / "tests/data/urdf/arm.urdf")
+    assert arm.joints and arm.components
+    q = {"shoulder": 0.3, "elbow": -0.4, "slide": 0.05}  # grip_b mimics grip_a
+    path = write_json(tmp_path / "q.json", q)
+    status, out, _ = cli("fk", examples.parent / "tests/data/urdf/arm.urdf", "--joints", path)
+    assert status == 0
+    assert cfuse.fk(arm, q).to_dict() == json.loads(out)
+    box = cfuse.load_model(examples.parent / "tests/data/cao/file_box.cao")
+    assert box.components and box.dof == 6
+
+
+@pytest.mark.parametrize("name", ["opencv_calibration.xml", "opencv_calibration.yml",
+                                  "ros_camera_info.yaml"])
+def test_camera_files(examples, name):
+    camera = cfuse.Camera.load(examples.parent / "tests/data/cameras" / name)
+    assert camera.fx > 0 and camera.fy > 0 and camera.width > 0 and camera.height > 0
+    assert len(camera.dist) == 12
+    # The principal point projects the optical axis.
+    assert np.allclose(camera.project(np.array([[0.0, 0.0, 2.0]])), [[camera.cx, camera.cy]])
