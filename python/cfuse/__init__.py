@@ -28,6 +28,8 @@ from ._cfuse import (Camera, InputError, InternalError, Measurements, Model,  # 
                      load_model)
 from . import _cfuse
 
+__version__: str = _cfuse.__version__
+
 __all__ = [
     "Camera", "InputError", "InternalError", "Measurements", "Model", "load_model",
     "Pose", "Joint", "Point", "Fit", "Result", "Poses", "Truth", "Frame", "Detection",

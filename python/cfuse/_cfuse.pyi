@@ -3,6 +3,8 @@ from typing import Any, Dict, List, Optional, Sequence, Tuple, Union
 import os
 import numpy as np
 
+__version__: str
+
 class InputError(ValueError):
     """Bad input: ``file``, ``line`` and ``column`` (0 when unknown), ``element`` ("" when
     unknown) and ``message`` (without the location)."""

@@ -91,6 +91,7 @@ PYBIND11_MODULE(_cfuse, m) {
   namespace py = pybind11;
   using namespace cfuse::python;
   m.doc() = "cfuse's C++ library; use the `cfuse` package, which wraps it.";
+  m.attr("__version__") = CFUSE_VERSION;
   // Bad input (tier 1): a ValueError naming the file and the place. A bug in cfuse (tier 3):
   // InternalError, a RuntimeError. Either way the interpreter lives on.
   static py::exception<cfuse::InputError> input_error(m, "InputError", PyExc_ValueError);

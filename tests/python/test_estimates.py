@@ -15,6 +15,11 @@ def without_time(d):
     return d
 
 
+def test_version_is_the_program_s(cli):
+    status, out, _ = cli("--version")
+    assert status == 0 and cfuse.__version__ in out
+
+
 def test_model_names_and_check(examples, cli):
     box = cfuse.load_model(examples / "hinged-box.yaml")
     assert box.name == "hinged file box"
