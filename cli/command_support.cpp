@@ -10,6 +10,7 @@
 
 #include "cfuse/dsl/measurement_reader.h"
 #include "cfuse/dsl/model_loader.h"
+#include "cfuse/geometry/model_edges.h"
 #include "cfuse/importers/cao.h"
 #include "cfuse/importers/urdf.h"
 #include "cfuse/importers/visp.h"
@@ -37,6 +38,16 @@ int Guarded(std::ostream& err, const std::function<int()>& body) {
   } catch (const std::exception& e) {
     err << "cfuse: internal error: " << e.what() << "\n";
     return 3;
+  }
+}
+
+void RequireEdges(const ConstraintGraph& graph, const std::string& model_file,
+                  const std::string& purpose) {
+  if (ModelEdges(graph).empty()) {
+    throw InputError(SourceLocation(model_file),
+                     fmt::format("model '{}' has no edges to {} (give its components edges, or "
+                                 "faces whose sides become edges)",
+                                 graph.name, purpose));
   }
 }
 

@@ -47,6 +47,11 @@ Camera LoadAnyCamera(const std::string& path);
 // a bad second output neither wastes the work nor leaves the first one written.
 void RequireWritable(const std::string& path);
 
+// An InputError at `model_file` when the model has no edges: "model 'NAME' has no edges to
+// PURPOSE (give its components edges, ...)". The image commands' models need them.
+void RequireEdges(const ConstraintGraph& graph, const std::string& model_file,
+                  const std::string& purpose);
+
 // A command's output files, written all or none: Stage() writes each to a temporary file beside
 // its target, Commit() renames them all into place; whatever is not committed is removed.
 class OutputFiles {

@@ -5,7 +5,6 @@
 #include <nlohmann/json.hpp>
 #include <ostream>
 
-#include "cfuse/geometry/model_edges.h"
 #include "cfuse/track/detector.h"
 #include "cli/command_support.h"
 #include "cli/frame_results.h"
@@ -23,12 +22,7 @@ int RunDetect(const DetectCommandOptions& options, std::ostream& out, std::ostre
       throw InputError(SourceLocation("--max-results"), "must be at least 1");
     }
     const ConstraintGraph graph = LoadAnyModel(options.model);
-    if (ModelEdges(graph).empty()) {
-      throw InputError(SourceLocation(options.model),
-                       fmt::format("model '{}' has no edges to find in an image (give its "
-                                   "components edges, or faces whose sides become edges)",
-                                   graph.name));
-    }
+    RequireEdges(graph, options.model, "find in an image");
     Camera camera = LoadAnyCamera(options.camera);
     const cv::Mat image = ReadGrayImage(options.image);
     if (camera.width <= 0 || camera.height <= 0) {

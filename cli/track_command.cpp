@@ -328,12 +328,7 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     // Without a start, the first frame is detected (cfuse/track/auto_tracker.h).
     std::optional<Values> initial;
     if (!options.init.empty()) initial = PosedModel(graph, options.init);
-    if (ModelEdges(graph).empty()) {
-      throw InputError(SourceLocation(options.model),
-                       fmt::format("model '{}' has no edges to track (give its components "
-                                   "edges, or faces whose sides become edges)",
-                                   graph.name));
-    }
+    RequireEdges(graph, options.model, "track");
     FrameSource source(options.images);
 
     TrackerOptions tracker_options;

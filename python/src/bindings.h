@@ -6,6 +6,7 @@
 #include <pybind11/pybind11.h>
 
 #include <memory>
+#include <optional>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 #include <string>
@@ -23,6 +24,7 @@ namespace py = pybind11;
 struct Model {
   std::shared_ptr<const ConstraintGraph> graph;
   std::string path;
+  mutable std::optional<int> dof;  // from the rank analysis, made when first asked for
 };
 
 // nlohmann::json as Python's dict, list, str, float, int, bool and None.

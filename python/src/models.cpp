@@ -81,7 +81,11 @@ void BindModels(py::module_& m) {
       .def_property_readonly(
           "path", [](const Model& x) { return x.path; }, "The file it was loaded from.")
       .def_property_readonly(
-          "dof", [](const Model& x) { return cli::Summarize(*x.graph).dof.dof; },
+          "dof",
+          [](const Model& x) {
+            if (!x.dof) x.dof = cli::Summarize(*x.graph).dof.dof;
+            return *x.dof;
+          },
           "The degrees of freedom the constraints leave (rank of their Jacobian).")
       .def_property_readonly("components", &ComponentNames, "The rigid components' names.")
       .def_property_readonly("joints", &JointNames, "The joints with a variable, by name.")
@@ -102,7 +106,7 @@ void BindModels(py::module_& m) {
       "load_model",
       [](const std::filesystem::path& file) {
         const std::string path = file.string();
-        return Model{std::make_shared<const ConstraintGraph>(cli::LoadAnyModel(path)), path};
+        return Model{std::make_shared<const ConstraintGraph>(cli::LoadAnyModel(path)), path, {}};
       },
       py::arg("path"), py::call_guard<py::gil_scoped_release>(),
       "A model from a YAML model file, a URDF or a ViSP CAO file.");

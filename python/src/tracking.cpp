@@ -10,10 +10,10 @@
 
 #include "bindings.h"
 #include "cfuse/dsl/pose_reader.h"
-#include "cfuse/geometry/model_edges.h"
 #include "cfuse/kernel/error.h"
 #include "cfuse/track/auto_tracker.h"
 #include "cfuse/track/detector.h"
+#include "cli/command_support.h"
 #include "cli/frame_results.h"
 #include "cli/image_support.h"
 
@@ -81,15 +81,6 @@ Camera CameraForImage(const Camera& camera, const GrayView& image) {
 
 namespace {
 
-void RequireEdges(const Model& model) {
-  if (ModelEdges(*model.graph).empty()) {
-    throw InputError(SourceLocation(model.path),
-                     fmt::format("model '{}' has no edges to find in an image (give its "
-                                 "components edges, or faces whose sides become edges)",
-                                 model.graph->name));
-  }
-}
-
 // The model at a starting pose: a path to a results file or a ViSP .pos file, or a dict in the
 // results format.
 std::optional<Values> Initial(const Model& model, const py::object& init) {
@@ -107,7 +98,7 @@ class PyTracker {
  public:
   PyTracker(Model model, Camera camera, const py::object& init, int max_branches)
       : model_(std::move(model)), camera_(std::move(camera)), initial_(Initial(model_, init)) {
-    RequireEdges(model_);
+    cli::RequireEdges(*model_.graph, model_.path, "track");
     if (max_branches < 1 || max_branches > 1000) {
       throw InputError(SourceLocation("max_branches"), "must be in [1, 1000]");
     }
@@ -169,7 +160,7 @@ void BindTracking(py::module_& m) {
       [](const Model& model, const Camera& camera, const py::array& image, int max_results,
          const std::string& order) {
         if (max_results < 1) throw InputError(SourceLocation("max_results"), "must be at least 1");
-        RequireEdges(model);
+        cli::RequireEdges(*model.graph, model.path, "find in an image");
         const GrayImage gray = ToGray(image, order, "image");
         const Camera sized = CameraForImage(camera, gray.view);
         DetectorOptions options;
