@@ -7,6 +7,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkgconf git ca-certificates
   libeigen3-dev        # linear algebra, AutoDiff module (kernel, constraints)
+  libsuitesparse-dev   # SuiteSparseQR: ranks of sparse Jacobians (kernel's fit analysis)
   libyaml-cpp-dev      # model DSL parser (dsl)
   liburdfdom-dev       # URDF import (importers)
   libtinyxml-dev       # urdfdom's XML parser, read first for error locations (importers)

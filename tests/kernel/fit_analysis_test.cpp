@@ -1,11 +1,14 @@
 // The fit of an estimate: the chi-square of whitened residuals and its p-value against a closed
 // form, the directions the measurements leave free (exactly the null space of their Jacobian,
-// whatever the model's extent), what constraints take away, what is left out, and MovesAlong.
+// whatever the model's extent), what constraints take away, what is left out, the counts of a
+// state too large to name its free directions, and MovesAlong.
 #include "cfuse/kernel/fit_analysis.h"
 
+#include <Eigen/SVD>
 #include <catch2/catch.hpp>
 #include <cmath>
 #include <limits>
+#include <random>
 
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/measurements/point3.h"
@@ -127,6 +130,169 @@ TEST_CASE("fit analysis: a pose seen at one point turns freely about it, in any 
     }
     CHECK(moves);
   }
+}
+
+TEST_CASE("fit analysis: a state beyond the dense limit still has its ranks counted", "[kernel]") {
+  // 520 points (1560 tangent dimensions > kMaxAnalysedDim): each but the last ten measured,
+  // consecutive pairs 1..20 tied by an offset, the pair 1-2 twice. Counts: the constraints
+  // take 3 x 20 (the repeat adds nothing); the ten unmeasured points are free (30), except
+  // none of them is tied, so determined = model_dof − 30.
+  const int points = 520;
+  std::vector<Block> blocks;
+  Values values;
+  for (int i = 0; i < points; ++i) {
+    blocks.push_back({BlockKind::kPoint, i, 3 * i, "p" + std::to_string(i)});
+    values.points.push_back(Eigen::Vector3d(0.01 * i, 0, 0));
+  }
+  REQUIRE(3 * points > kMaxAnalysedDim);
+  std::vector<Factor> factors;
+  for (int i = 0; i + 10 < points; ++i) {
+    factors.push_back(Measured(i, values.points[i], 1e-4 * Eigen::Matrix3d::Identity()));
+  }
+  const Eigen::Vector3d d(-0.01, 0, 0);
+  for (int i = 1; i <= 20; ++i) {
+    factors.push_back({std::make_shared<Offset>(d), {i, i + 1}, {}, "tie"});
+  }
+  factors.push_back({std::make_shared<Offset>(d), {1, 2}, {}, "tie again"});
+  const FitAnalysis a = AnalyseFit(factors, blocks, values, 5.0);
+  CHECK(a.analysed);
+  CHECK(a.state_dim == 3 * points);
+  CHECK(a.model_dof == 3 * points - 60);
+  CHECK(a.determined == a.model_dof - 30);
+  CHECK(a.fit.residuals == 3 * (points - 10));
+  CHECK(a.fit.dof == a.fit.residuals - a.determined);
+  CHECK(a.free_directions.size() == 0);  // not named beyond the dense limit
+}
+
+// The counts by the definition: rank C and rank M N (N a basis of C's null space) by dense
+// SVDs of the scaled rows, the constraints' normalised, the measurements' whitened.
+std::pair<int, int> DenseCounts(const std::vector<Factor>& factors,
+                                const std::vector<Block>& blocks, const Values& values,
+                                double extent) {
+  int n = 0;
+  for (const Block& b : blocks) n = std::max(n, b.tangent_offset + TangentDim(b.kind));
+  std::vector<Eigen::RowVectorXd> c_rows, m_rows;
+  for (const Factor& f : factors) {
+    Eigen::VectorXd r;
+    Eigen::MatrixXd j;
+    EvaluateResidual(*f.residual, blocks, f.blocks, values, &r, &j);
+    Eigen::MatrixXd full = Eigen::MatrixXd::Zero(r.size(), n);
+    int column = 0;
+    for (int block : f.blocks) {
+      const Block& b = blocks[block];
+      const int dim = TangentDim(b.kind);
+      for (int k = 0; k < dim; ++k) {
+        const bool position = b.kind == BlockKind::kPoint || (b.kind == BlockKind::kPose && k >= 3);
+        full.col(b.tangent_offset + k) += j.col(column + k) * (position ? extent : 1.0);
+      }
+      column += dim;
+    }
+    if (f.is_constraint()) {
+      for (int i = 0; i < full.rows(); ++i) c_rows.push_back(full.row(i).normalized());
+    } else {
+      const Eigen::MatrixXd w = Eigen::LLT<Eigen::MatrixXd>(f.noise).matrixL().solve(full);
+      for (int i = 0; i < w.rows(); ++i) m_rows.push_back(w.row(i));
+    }
+  }
+  const auto stack = [n](const std::vector<Eigen::RowVectorXd>& rows) {
+    Eigen::MatrixXd m(static_cast<int>(rows.size()), n);
+    for (size_t i = 0; i < rows.size(); ++i) m.row(static_cast<int>(i)) = rows[i];
+    return m;
+  };
+  Eigen::MatrixXd null_space = Eigen::MatrixXd::Identity(n, n);
+  if (!c_rows.empty()) {
+    const Eigen::JacobiSVD<Eigen::MatrixXd> svd(stack(c_rows), Eigen::ComputeFullV);
+    const int rank =
+        static_cast<int>((svd.singularValues().array() > 1e-9 * svd.singularValues()[0]).count());
+    null_space = svd.matrixV().rightCols(n - rank);
+  }
+  const Eigen::MatrixXd projected = stack(m_rows) * null_space;
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(projected);
+  const int determined =
+      static_cast<int>((svd.singularValues().array() > 1e-6 * svd.singularValues()[0]).count());
+  return {static_cast<int>(null_space.cols()), determined};
+}
+
+// r = pose ⊙ q − point: a pose block's feature point measured against a point block.
+class PointOnPose : public AutoDiffResidual<PointOnPose> {
+ public:
+  explicit PointOnPose(const Eigen::Vector3d& q)
+      : AutoDiffResidual(3, {BlockKind::kPose, BlockKind::kPoint}), q_(q) {}
+  template <typename T>
+  void Compute(std::span<const BlockState<T>> x, T* r) const {
+    const Vector3<T> p = ModelPointInWorld(x[0], true, q_);
+    for (int i = 0; i < 3; ++i) r[i] = p[i] - x[1].t[i];
+  }
+  std::string Describe(std::span<const std::string>) const override { return "on pose"; }
+
+ private:
+  Eigen::Vector3d q_;
+};
+
+TEST_CASE("fit analysis: the sparse counts agree with the dense decompositions", "[kernel]") {
+  // Random models of 12 poses and 12 points (96 dimensions, past the dense shortcut): points
+  // on poses as constraints (some twice), measurements of some points and of some poses' feature
+  // points (of all in a third of the trials), and in half the trials measurements over two
+  // blocks (the stacked path).
+  std::mt19937 rng(3);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::uniform_int_distribution<int> pick(0, 11);
+  int with_free = 0, without = 0;
+  for (int trial = 0; trial < 24; ++trial) {
+    INFO("trial " << trial);
+    std::vector<Block> blocks;
+    Values values;
+    for (int i = 0; i < 12; ++i) {
+      blocks.push_back({BlockKind::kPose, i, 6 * i, "pose" + std::to_string(i)});
+      values.poses.push_back(
+          Rigid3d(Eigen::Quaterniond(1 + u(rng), u(rng), u(rng), u(rng)).normalized(),
+                  Eigen::Vector3d(u(rng), u(rng), u(rng))));
+    }
+    for (int i = 0; i < 12; ++i) {
+      blocks.push_back({BlockKind::kPoint, i, 72 + 3 * i, "point" + std::to_string(i)});
+      values.points.push_back(Eigen::Vector3d(u(rng), u(rng), u(rng)));
+    }
+    std::vector<Factor> factors;
+    const Eigen::Matrix3d noise = 1e-4 * Eigen::Matrix3d::Identity();
+    for (int k = 0; k < 10 + trial % 6; ++k) {
+      const int pose = pick(rng), point = pick(rng);
+      const Eigen::Vector3d q(u(rng), u(rng), u(rng));
+      factors.push_back({std::make_shared<PointOnPose>(q), {pose, 12 + point}, {}, "tie"});
+      if (k % 4 == 0) factors.push_back(factors.back());  // a repeated constraint
+    }
+    for (int k = 0; k < 6 + trial % 5; ++k) {
+      factors.push_back(Measured(12 + pick(rng), Eigen::Vector3d(u(rng), u(rng), u(rng)), noise));
+      const Eigen::Vector3d q(u(rng), u(rng), u(rng));
+      factors.push_back({std::make_shared<Point3Residual>(q, Eigen::Vector3d(u(rng), 0, 0)),
+                         {pick(rng)},
+                         noise,
+                         "z"});
+    }
+    if (trial % 3 == 0) {  // everything measured: nothing left free
+      for (int i = 0; i < 12; ++i) {
+        factors.push_back(Measured(12 + i, values.points[i], noise));
+        for (const Eigen::Vector3d& q :
+             {Eigen::Vector3d(0.1, 0, 0), Eigen::Vector3d(0, 0.1, 0), Eigen::Vector3d(0, 0, 0.1)}) {
+          factors.push_back(
+              {std::make_shared<Point3Residual>(q, values.poses[i] * q), {i}, noise, "z"});
+        }
+      }
+    }
+    if (trial % 2) {
+      factors.push_back({std::make_shared<Offset>(Eigen::Vector3d(0.1, 0, 0)),
+                         {12 + pick(rng), 12 + pick(rng)},
+                         noise,
+                         "between"});
+    }
+    const FitAnalysis a = AnalyseFit(factors, blocks, values, 2.0);
+    const auto [model_dof, determined] = DenseCounts(factors, blocks, values, 2.0);
+    CHECK(a.model_dof == model_dof);
+    CHECK(a.determined == determined);
+    CHECK(a.free_directions.cols() == model_dof - determined);
+    (determined < model_dof ? with_free : without)++;
+  }
+  CHECK(with_free > 0);
+  CHECK(without > 0);
 }
 
 TEST_CASE("fit analysis: MovesAlong and its tolerance", "[kernel]") {

@@ -12,6 +12,11 @@
 //   a link turning about an axis through its only measured point);
 //   dof  = m − ρ, and p = P(χ²_dof > chi2): the chance of a fit this bad or worse if the model
 //          and the noise are right.
+// The counts come from sparse QR (SuiteSparseQR), at a cost that follows the model's graph:
+// rank C, and ρ as rank [C; R^{-½} A] − rank C, or, where every measurement reaches one block,
+// as the model's degrees of freedom less the directions the blocks' measurements leave free
+// and C does not hold. The basis of the free directions, when there are some, comes from the
+// dense decompositions above.
 // Positions are compared with rotations at the model's extent (a radian turns a point at the
 // extent by the extent), so the rank does not depend on the units. Inequalities' slacks enter
 // like any block: an active limit (slack at zero) then holds its joint as an equality would.
@@ -27,9 +32,9 @@ namespace cfuse {
 
 struct Fit {
   double chi2 = 0;
-  int residuals = 0;    // m
-  int dof = 0;          // m − the determined directions
-  double p_value = 1;   // 1 when dof is 0 (nothing to test)
+  int residuals = 0;   // m
+  int dof = 0;         // m − the determined directions
+  double p_value = 1;  // 1 when dof is 0 (nothing to test)
 };
 
 struct FitAnalysis {
@@ -39,13 +44,16 @@ struct FitAnalysis {
   int determined = 0;  // of those, fixed by the measurements
   // A basis (state_dim x (model_dof − determined), tangent coordinates) of the directions the
   // measurements leave free; empty when everything is determined or when the state is larger
-  // than kMaxAnalysedDim (`analysed` false: the fit's dof then assumes every direction allowed
-  // by the constraints' row count is determined).
+  // than kMaxAnalysedDim (the counts above are then still exact).
   Eigen::MatrixXd free_directions;
+  // false without ranks: the fit's dof then assumes every direction allowed by the
+  // constraints' row count is determined.
   bool analysed = true;
 };
 
-inline constexpr int kMaxAnalysedDim = 1500;  // dense SVDs: ~1 s at this size
+// The counts come from sparse QR factorisations, whose cost follows the model's graph; naming
+// the free directions takes dense SVDs (~1 s at this size), done only when there are some.
+inline constexpr int kMaxAnalysedDim = 1500;
 
 // `factors`' measurements and constraints at `values`; `extent` the model's size in metres.
 // Factors whose residual or Jacobian is not finite at `values` are left out.
