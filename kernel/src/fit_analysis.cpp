@@ -2,7 +2,6 @@
 
 #include <Eigen/Cholesky>
 #include <Eigen/Eigenvalues>
-#include <Eigen/OrderingMethods>
 #include <Eigen/SPQRSupport>
 #include <Eigen/SparseCore>
 #include <algorithm>
@@ -83,6 +82,42 @@ void NameFreeDirections(const SparseMatrix& constraints, const SparseMatrix& mea
     out->free_directions = scale.asDiagonal() * null_space * eigen.eigenvectors().leftCols(free);
     out->free_directions.colwise().normalize();
   }
+}
+
+// Where every measurement reaches one block, M is block-diagonal, and so is a basis F of its
+// null space (each block's eigenvectors of negligible information): the directions left free
+// are F y with C F y = 0, as many as the null space of C F, a matrix with a column per
+// direction some block leaves free (few, usually: a part without markers, the slacks).
+int FreeUnderConstraints(const std::vector<Block>& blocks,
+                         const std::vector<Eigen::MatrixXd>& block_information,
+                         const SparseMatrix& constraints) {
+  const int n = static_cast<int>(constraints.cols());
+  double largest = 0;
+  std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen(blocks.size());
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    if (block_information[b].size() == 0) continue;
+    eigen[b].compute(block_information[b]);
+    largest = std::max(largest, eigen[b].eigenvalues().maxCoeff());
+  }
+  Triplets free_entries;
+  int free = 0;
+  for (size_t b = 0; b < blocks.size(); ++b) {
+    const int o = blocks[b].tangent_offset, dim = TangentDim(blocks[b].kind);
+    for (int i = 0; i < dim; ++i) {
+      if (block_information[b].size() == 0) {
+        free_entries.emplace_back(o + i, free++, 1.0);
+      } else if (!(eigen[b].eigenvalues()[i] > kInformationTolerance * largest)) {
+        for (int k = 0; k < dim; ++k) {
+          free_entries.emplace_back(o + k, free, eigen[b].eigenvectors()(k, i));
+        }
+        ++free;
+      }
+    }
+  }
+  if (free == 0 || constraints.rows() == 0) return free;
+  SparseMatrix unmeasured(n, free);
+  unmeasured.setFromTriplets(free_entries.begin(), free_entries.end());
+  return free - SparseRank(constraints * unmeasured, kConstraintTolerance);
 }
 
 }  // namespace
@@ -167,60 +202,32 @@ FitAnalysis AnalyseFit(const std::vector<Factor>& factors, const std::vector<Blo
     SparseMatrix constraints(constraint_rows, n), measurements(out.fit.residuals, n);
     constraints.setFromTriplets(constraint_entries.begin(), constraint_entries.end());
     measurements.setFromTriplets(measurement_entries.begin(), measurement_entries.end());
-    const int constraint_rank =
-        n <= kDenseBelowDim ? 0 : SparseRank(constraints, kConstraintTolerance);
-    out.model_dof = n - constraint_rank;
     if (n <= kDenseBelowDim) {
-      out.determined = 0;  // the dense decompositions below count, and name
-    } else if (one_block_each) {
-      // M is block-diagonal, and so is a basis F of its null space (each block's eigenvectors
-      // of negligible information): the free directions are F y with C F y = 0, as many as
-      // the null space of C F, a matrix with a column per direction some block leaves free
-      // (few, usually: a part without markers, the slacks).
-      double largest = 0;
-      std::vector<Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd>> eigen(blocks.size());
-      for (size_t b = 0; b < blocks.size(); ++b) {
-        if (block_information[b].size() == 0) continue;
-        eigen[b].compute(block_information[b]);
-        largest = std::max(largest, eigen[b].eigenvalues().maxCoeff());
-      }
-      Triplets free_entries;
-      int free = 0;
-      for (size_t b = 0; b < blocks.size(); ++b) {
-        const int o = blocks[b].tangent_offset, dim = TangentDim(blocks[b].kind);
-        for (int i = 0; i < dim; ++i) {
-          if (block_information[b].size() == 0) {
-            free_entries.emplace_back(o + i, free++, 1.0);
-          } else if (!(eigen[b].eigenvalues()[i] > kInformationTolerance * largest)) {
-            for (int k = 0; k < dim; ++k) {
-              free_entries.emplace_back(o + k, free, eigen[b].eigenvectors()(k, i));
-            }
-            ++free;
-          }
-        }
-      }
-      SparseMatrix unmeasured(n, free);
-      unmeasured.setFromTriplets(free_entries.begin(), free_entries.end());
-      const int held = free > 0 && constraint_rows > 0
-                           ? SparseRank(constraints * unmeasured, kConstraintTolerance)
-                           : 0;
-      out.determined = std::clamp(out.model_dof - (free - held), 0, out.model_dof);
+      NameFreeDirections(constraints, measurements, scale, &out);  // counts, and names
     } else {
-      // determined = rank [C; M] − rank C, with C's rows as strong as M's strongest.
-      const double weight = largest_measurement_row > 0 ? largest_measurement_row : 1.0;
-      for (auto& e : constraint_entries) {
-        e = {e.row() + out.fit.residuals, e.col(), e.value() * weight};
+      const int constraint_rank = SparseRank(constraints, kConstraintTolerance);
+      out.model_dof = n - constraint_rank;
+      if (one_block_each) {
+        out.determined =
+            std::clamp(out.model_dof - FreeUnderConstraints(blocks, block_information, constraints),
+                       0, out.model_dof);
+      } else {
+        // determined = rank [C; M] − rank C, with C's rows as strong as M's strongest.
+        const double weight = largest_measurement_row > 0 ? largest_measurement_row : 1.0;
+        for (auto& e : constraint_entries) {
+          e = {e.row() + out.fit.residuals, e.col(), e.value() * weight};
+        }
+        measurement_entries.insert(measurement_entries.end(), constraint_entries.begin(),
+                                   constraint_entries.end());
+        SparseMatrix stacked(out.fit.residuals + constraint_rows, n);
+        stacked.setFromTriplets(measurement_entries.begin(), measurement_entries.end());
+        out.determined = std::clamp(
+            SparseRank(std::move(stacked), kSingularTolerance) - constraint_rank, 0, out.model_dof);
       }
-      measurement_entries.insert(measurement_entries.end(), constraint_entries.begin(),
-                                 constraint_entries.end());
-      SparseMatrix stacked(out.fit.residuals + constraint_rows, n);
-      stacked.setFromTriplets(measurement_entries.begin(), measurement_entries.end());
-      out.determined = std::clamp(
-          SparseRank(std::move(stacked), kSingularTolerance) - constraint_rank, 0, out.model_dof);
-    }
-    // Free directions are named (and counted again, densely) only where there are some.
-    if ((out.determined < out.model_dof && n <= kMaxAnalysedDim) || n <= kDenseBelowDim) {
-      NameFreeDirections(constraints, measurements, scale, &out);
+      // Free directions are named (and counted again, densely) only where there are some.
+      if (out.determined < out.model_dof && n <= kMaxAnalysedDim) {
+        NameFreeDirections(constraints, measurements, scale, &out);
+      }
     }
   }
   out.fit.dof = std::max(0, out.fit.residuals - out.determined);
