@@ -1,7 +1,8 @@
 // Are the answers right when they are given? A Monte Carlo sweep over models, data kinds and
 // clutter (docs/benchmarks.md, "Right, wrong or refused").
 //
-//   answer_sweep MODEL... [--trials 50] [--first 0] [--verbose]
+//   answer_sweep MODEL... [--trials 50] [--first 0] [--verbose] [--commands solve,interpret]
+//                [--data 3d,camera]
 //
 // For every model, from 3D points (2 mm noise) and from one 640 x 480 pinhole camera (1 px
 // noise), without clutter (labelled points: `solve`) and with one clutter point per real one
@@ -95,7 +96,13 @@ int Run(int argc, char** argv) {
   app.add_option("--first", first, "first trial (seed 100 + first)");
   bool verbose = false;
   app.add_flag("--verbose", verbose, "each wrong accepted answer on stderr");
+  std::string commands = "solve,interpret", data = "3d,camera";
+  app.add_option("--commands", commands, "the cells' commands: solve, interpret (comma-separated)");
+  app.add_option("--data", data, "the cells' data: 3d, camera (comma-separated)");
   CLI11_PARSE(app, argc, argv);
+  const auto listed = [](const std::string& list, const std::string& item) {
+    return ("," + list + ",").find("," + item + ",") != std::string::npos;
+  };
 
   const Camera pinhole = StandardCamera();  // 640 x 480, 800 px focal length
 
@@ -105,7 +112,9 @@ int Run(int argc, char** argv) {
   for (const std::string& file : models) {
     const ConstraintGraph g = LoadModel(file);
     for (const bool image : {false, true}) {
+      if (!listed(data, image ? "camera" : "3d")) continue;
       for (const double clutter : {0.0, 1.0}) {
+        if (!listed(commands, clutter == 0 ? "solve" : "interpret")) continue;
         Tally tally;
         for (int t = first; t < first + trials; ++t) {
           SimulateOptions so;

@@ -28,7 +28,8 @@
 // null counted; Hel-Or & Werman's search), "components" (the paper's divide and conquer:
 // constraints between components ignored); ablations, each one improvement off:
 // "no-joint-compatibility", "no-probability-order", "no-refinement", "no-postpone-blind",
-// "no-free-nulls".
+// "no-free-nulls", "no-alternatives" (no search for other interpretations as complete as the
+// answer).
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -90,6 +91,9 @@ InterpretOptions Config(const std::string& name) {
     o.postpone_blind = false;
   } else if (name == "no-free-nulls") {
     o.free_evidenced_nulls = 0;
+  } else if (name == "no-alternatives") {
+    o.max_alternative_seeds = 0;
+    o.max_symmetric_readings = 0;
   } else if (name != "improved") {
     throw std::invalid_argument("unknown configuration '" + name + "'");
   }

@@ -194,6 +194,16 @@ void Interpreter::Explore() {
   for (size_t i : order) {
     if (searched[i]) continue;
     if (best_matched_ >= 0 && seeds[i].bound + kSupportMargin < best_matched_) continue;
+    // A bound counts every point of the components beyond the seed's neighbours as possible:
+    // for a model of single points (the lamp) that is nearly all of them, and every seed
+    // passed. Once the best leaves at most kLazyNulls points unmatched (what occlusion
+    // explains, where the seed sets stop opening too), the seeds left, in order of support,
+    // are searched only while their support could still beat it. A wrong partial answer (the
+    // ruler's 12 of 24 points) is not that complete, so every seed its bound allows still is.
+    if (best_matched_ >= levels_ - kLazyNulls &&
+        seeds[i].support + kSupportMargin < best_matched_) {
+      break;
+    }
     if (!search(i)) return;
   }
 }

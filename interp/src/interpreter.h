@@ -192,8 +192,10 @@ class Interpreter {
   // Searches below each seed, most supported first, by iterative deepening on null branches:
   // round k allows k of them, and the first complete interpretation found below a seed ends
   // its search (it has the most matches that seed allows: every round before failed). A later
-  // seed is searched only if its support could still beat that interpretation, and must then
-  // match more points. Without seeds, the same from the nominal geometry (the paper's search).
+  // seed is searched only if its bound (its supported points, and those of other components,
+  // whose places it does not fix) could still beat that interpretation, and, once that leaves
+  // at most kLazyNulls points unmatched, its support too; it must then match more points.
+  // Without seeds, the same from the nominal geometry (the paper's search).
   void Run();
 
   // Seed sets are opened one at a time (each costs its measurement triples), and a set's clear

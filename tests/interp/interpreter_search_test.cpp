@@ -122,4 +122,34 @@ TEST_CASE("search: the paper's plain tree and each refinement find the same labe
 }
 
 }  // namespace
+// The lamp is all single points, so a seed's bound (every point beyond its neighbours counted
+// as possible) rules out almost no seed. Once an answer leaves no more points unmatched than
+// occlusion explains, the seeds that follow are searched only while their support could beat
+// it: the answers stay right and the seeds searched drop.
+TEST_CASE("interpret: a nearly complete answer ends the search of less supported seeds",
+          "[interp]") {
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  int right = 0, seeds_tried = 0;
+  const int trials = 8;
+  for (int i = 0; i < trials; ++i) {
+    SimulateOptions so;
+    so.seed = 500 + i;
+    so.clutter = 2;
+    so.occlusion = 0.1;
+    const Simulation sim = Simulate(g, so);
+    const Interpretation in = Interpret(g, sim.measurements, InterpretOptions{});
+    bool all = in.stats.status == SearchStats::Status::kComplete;
+    for (size_t m = 0; m < sim.matches.size(); ++m) {
+      all = all && SameModelPlace(g, sim.truth, sim.matches[m], in.matches[m]);
+    }
+    right += all ? 1 : 0;
+    seeds_tried += in.stats.seeds_tried;
+    INFO("trial " << i << ": " << in.matched << " of " << in.assignment.size() << " matched, "
+                  << in.stats.seeds_tried << " of " << in.stats.seeds << " seeds searched");
+  }
+  INFO("all right in " << right << " of " << trials << "; seeds searched " << seeds_tried);
+  CHECK(right == trials);
+  CHECK(seeds_tried <= 2 * trials);
+}
+
 }  // namespace cfuse
