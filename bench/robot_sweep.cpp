@@ -1,8 +1,8 @@
-// Joint angles from markers, three estimators on the same data: the benchmark of issue 5
-// (docs/benchmarks.md).
+// Joint angles from markers, three estimators (and a peer) on the same data: the benchmark of issue
+// 5 (docs/benchmarks.md).
 //
 //   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods
-//   fusion,parametric,components]
+//   fusion,parametric,components,ceres]
 //
 // For every MODEL (a URDF or a model file) it writes a model that includes it and fixes three
 // markers on every component (a triangle 6-8 cm across about the component's frame, as a
@@ -11,7 +11,9 @@
 // pose, the markers measured in 3D with that noise), and solves each with
 //   - fusion: constraint fusion (cfuse/interp/solve.h), every joint a constraint;
 //   - parametric: Lowe's estimator on root poses and joint variables (cfuse/interp/parametric.h);
-//   - components: every component from its own markers alone, joints read off the poses.
+//   - components: every component from its own markers alone, joints read off the poses;
+//   - ceres: the parametric problem solved by Ceres, a peer (bench/ceres_robot.h; only where
+//     Ceres was found at build time; its rows have no covariance, so no NEES).
 // It prints a Markdown row per model, noise level and method: the trials that converged, the
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
 // mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
@@ -30,6 +32,9 @@
 #include <vector>
 
 #include "bench/sweep_main.h"
+#ifdef CFUSE_HAVE_CERES
+#include "bench/ceres_robot.h"
+#endif
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/importers/urdf.h"
 #include "cfuse/interp/joint_estimates.h"
@@ -65,9 +70,8 @@ LoadOptions WithUrdf() {
 
 // `model` included by a model that adds three markers to every component.
 ConstraintGraph WithMarkers(const std::string& model, const fs::path& dir) {
-  const ConstraintGraph base = fs::path(model).extension() == ".urdf"
-                                   ? ImportUrdf(model)
-                                   : LoadModel(model, WithUrdf());
+  const ConstraintGraph base =
+      fs::path(model).extension() == ".urdf" ? ImportUrdf(model) : LoadModel(model, WithUrdf());
   fs::create_directories(dir);
   const fs::path path = dir / (fs::path(model).stem().string() + "-markers.yaml");
   std::ofstream out(path);
@@ -103,9 +107,9 @@ struct Cell {
   std::vector<int> failed;  // trials that did not converge
 };
 
-// Adds one estimate's errors against the truth.
+// Adds one estimate's errors against the truth (its covariance's NEES only `with_covariance`).
 void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& estimate,
-           bool converged, double ms, double noise, Cell* cell) {
+           bool converged, double ms, double noise, Cell* cell, bool with_covariance = true) {
   ++cell->trials;
   cell->ms.push_back(ms);
   if (!converged) {
@@ -129,7 +133,7 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
   // opening) has next to no variance: NEES over the others. Free, a joint's sigma is at least
   // about the noise over the markers' spread (0.1 m), so a thousandth of that means held.
   std::vector<int> free;
-  for (int i = 0; i < e.size(); ++i) {
+  for (int i = 0; i < e.size() && with_covariance; ++i) {
     const bool prismatic = g.joints[q.joints[i]].type == JointType::kPrismatic;
     const double floor = 1e-3 * (prismatic ? noise : noise / 0.1);
     const bool on_limit = q.covariance(i, i) < floor * floor;
@@ -145,7 +149,7 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
     ef[a] = e[free[a]];
     for (size_t b = 0; b < free.size(); ++b) P(a, b) = q.covariance(free[a], free[b]);
   }
-  cell->nees += ef.dot(P.ldlt().solve(ef));
+  if (!free.empty()) cell->nees += ef.dot(P.ldlt().solve(ef));
   cell->dof += static_cast<int>(free.size());
   for (size_t c = 0; c < g.components.size(); ++c) {
     if (!g.components[c].rigid) {
@@ -175,10 +179,16 @@ int Run(int argc, char** argv) {
   app.add_option("--noise", noises, "3D marker noise sigmas, metres, comma-separated");
   app.add_option("--trials", trials, "trials per model and noise level")
       ->check(CLI::Range(1, 100000));
-  app.add_option("--methods", methods, "fusion, parametric, components");
+  int first = 0;
+  app.add_option("--first", first, "first trial (seed 100 + first)");
+  app.add_option("--methods", methods,
+                 "fusion, parametric, components, ceres (where Ceres was found at build time)");
   app.add_flag("--verbose", verbose, "list the trials that did not converge");
   CLI11_PARSE(app, argc, argv);
   for (const std::string& m : Split(methods)) {
+#ifdef CFUSE_HAVE_CERES
+    if (m == "ceres") continue;
+#endif
     if (m != "fusion" && m != "parametric" && m != "components") {
       throw std::invalid_argument("unknown method '" + m + "'");
     }
@@ -192,6 +202,9 @@ int Run(int argc, char** argv) {
   for (const std::string& model : models) {
     const ConstraintGraph g = WithMarkers(model, dir);
     const std::string why = ParametricUnsupported(g);
+#ifdef CFUSE_HAVE_CERES
+    const std::string ceres_why = bench::CeresRobotUnsupported(g);
+#endif
     int joints = 0;
     for (const Joint& j : g.joints) joints += HasJointVariable(j.type) && !j.mimic ? 1 : 0;
     for (const std::string& noise_text : Split(noises)) {
@@ -199,7 +212,7 @@ int Run(int argc, char** argv) {
       std::vector<Simulation> sims;
       for (int t = 0; t < trials; ++t) {
         SimulateOptions so;
-        so.seed = 100 + t;
+        so.seed = 100 + first + t;
         so.noise = noise;
         so.labels = true;
         so.sample_joints = true;
@@ -217,15 +230,38 @@ int Run(int argc, char** argv) {
                      joints, 1000 * noise, method, why);
           continue;
         }
+#ifdef CFUSE_HAVE_CERES
+        if (method == "ceres" && !ceres_why.empty()) {
+          fmt::print("| {} | {} | {:g} mm | {} | not for the peer: {} | | | | | |\n", g.name,
+                     joints, 1000 * noise, method, ceres_why);
+          continue;
+        }
+        if (method == "ceres") {
+          // The peer's kinematics must be the model's: the truth placed by them stays put.
+          const double error = bench::CeresKinematicsError(g, sims.front().truth);
+          if (!(error < 1e-9)) {
+            throw std::logic_error(fmt::format(
+                "the Ceres peer's kinematics miss the model's by {:.3g} m on {}", error, g.name));
+          }
+        }
+#endif
         Cell cell;
         for (const Simulation& sim : sims) {
           const auto start = std::chrono::steady_clock::now();
           GaussianState estimate;
           bool converged = false;
+          bool with_covariance = true;
           if (method == "parametric") {
             ParametricSolution s = SolveParametric(g, sim.measurements);
             converged = s.converged;
             estimate = std::move(s.solution.state);
+#ifdef CFUSE_HAVE_CERES
+          } else if (method == "ceres") {
+            bench::CeresRobotResult s = bench::SolveWithCeres(g, sim.measurements);
+            converged = s.converged;
+            estimate = MakePrior(g.blocks, s.values, PriorScale{});  // its mean; no covariance
+            with_covariance = false;
+#endif
           } else {
             SolveOptions options;
             options.use_constraints_between_components = method == "fusion";
@@ -236,21 +272,21 @@ int Run(int argc, char** argv) {
           const double ms =
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                   .count();
-          Score(g, sim.truth, estimate, converged, ms, noise, &cell);
+          Score(g, sim.truth, estimate, converged, ms, noise, &cell, with_covariance);
         }
         auto rms = [](double sq, int n) {
           return n ? fmt::format("{:.3f}", std::sqrt(sq / n)) : std::string("—");
         };
         fmt::print(
-            "| {} | {} | {:g} mm | {} | {}/{} | {} | {} | {:.2f} | {} | {:.3f} ms |\n", g.name,
-            joints, 1000 * noise, method, cell.converged, cell.trials,
+            "| {} | {} | {:g} mm | {} | {}/{} | {} | {} | {} | {} | {:.3f} ms |\n", g.name, joints,
+            1000 * noise, method, cell.converged, cell.trials,
             cell.angles ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.angle_sq / cell.angles))
                         : std::string("—"),
             cell.prismatics
                 ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.prismatic_sq / cell.prismatics))
                 : std::string("—"),
-            cell.dof ? cell.nees / cell.dof : NAN, rms(1e6 * cell.point_sq, cell.points),
-            Median(cell.ms));
+            cell.dof ? fmt::format("{:.2f}", cell.nees / cell.dof) : std::string("—"),
+            rms(1e6 * cell.point_sq, cell.points), Median(cell.ms));
         if (verbose) {
           for (int t : cell.failed)
             fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + t);

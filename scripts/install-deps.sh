@@ -19,6 +19,7 @@ packages=(
   catch2               # unit tests (v2, with ctest integration)
   libbenchmark-dev     # benchmarks (bench)
   libvisp-mbt-dev      # (bench only: ViSP's edge tracker as a peer)
+  libceres-dev         # (bench only: Ceres on the robots' parametric problems, a peer)
   visp-images-data     # ViSP's public sequences, models and cameras: tracking tests and benchmarks
   graphviz             # renders `cfuse graph` output in tests
   python3-dev pybind11-dev  # the Python module (python/)
