@@ -96,12 +96,16 @@ int Run(int argc, char** argv) {
   app.add_option("--first", first, "first trial (seed 100 + first)");
   bool verbose = false;
   app.add_flag("--verbose", verbose, "each wrong accepted answer on stderr");
-  std::string commands = "solve,interpret", data = "3d,camera";
-  app.add_option("--commands", commands, "the cells' commands: solve, interpret (comma-separated)");
-  app.add_option("--data", data, "the cells' data: 3d, camera (comma-separated)");
+  std::vector<std::string> commands = {"solve", "interpret"}, data = {"3d", "camera"};
+  app.add_option("--commands", commands, "the cells' commands: solve, interpret (comma-separated)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"solve", "interpret"}));
+  app.add_option("--data", data, "the cells' data: 3d, camera (comma-separated)")
+      ->delimiter(',')
+      ->check(CLI::IsMember({"3d", "camera"}));
   CLI11_PARSE(app, argc, argv);
-  const auto listed = [](const std::string& list, const std::string& item) {
-    return ("," + list + ",").find("," + item + ",") != std::string::npos;
+  const auto listed = [](const std::vector<std::string>& list, const char* item) {
+    return std::find(list.begin(), list.end(), item) != list.end();
   };
 
   const Camera pinhole = StandardCamera();  // 640 x 480, 800 px focal length

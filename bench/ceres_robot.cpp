@@ -44,14 +44,39 @@ Pose<T> Move(const Pose<T>& a, JointType type, const Eigen::Vector3d& axis, cons
   return {a.rotation * Eigen::Quaternion<T>(cos(half), v.x(), v.y(), v.z()), a.translation};
 }
 
-// The forest: for each component the joints from its root down to it, and each joint's
-// variable (its leader's for a mimic).
+// A chain written as steps: a constant transform, then (for a joint with a variable) its
+// motion. Consecutive constants are multiplied out once (a link's child_from_joint⁻¹ with the
+// next joint's parent_from_joint; fixed joints whole), so the automatic derivatives go through
+// one constant and one motion per joint with a variable.
+struct Step {
+  Rigid3d before;
+  int joint = -1;  // its motion follows `before`; -1: none (the chain's last constant)
+};
+
+std::vector<Step> Steps(const ConstraintGraph& g, const std::vector<int>& chain) {
+  std::vector<Step> steps;
+  Rigid3d pending;
+  for (int j : chain) {
+    const Joint& joint = g.joints[j];
+    pending = pending * joint.parent_from_joint;
+    if (HasJointVariable(joint.type)) {
+      steps.push_back({pending, j});
+      pending = Rigid3d();
+    }
+    pending = pending * joint.child_from_joint.Inverse();
+  }
+  steps.push_back({pending, -1});
+  return steps;
+}
+
+// The forest: for each component its root (an index into `roots`) and the steps from the
+// root's pose to its own, and each joint's variable (its leader's for a mimic).
 struct Forest {
-  std::vector<int> root_of;             // per component: its root component
-  std::vector<std::vector<int>> chain;  // per component: joints from the root down
-  std::vector<int> variable;            // per joint: variable index, or -1 (fixed)
-  std::vector<int> variable_joint;      // per variable: its joint
-  std::vector<int> roots;
+  std::vector<int> roots;                // root components
+  std::vector<int> root;                 // per component: its root, into `roots`
+  std::vector<std::vector<Step>> steps;  // per component
+  std::vector<int> variable;             // per joint: variable index, or -1 (fixed)
+  std::vector<int> variable_joint;       // per variable: its joint
 };
 
 Forest MakeForest(const ConstraintGraph& g) {
@@ -59,17 +84,23 @@ Forest MakeForest(const ConstraintGraph& g) {
   const int nc = static_cast<int>(g.components.size());
   std::vector<int> placed_by(nc, -1);
   for (size_t j = 0; j < g.joints.size(); ++j) placed_by[g.joints[j].child] = static_cast<int>(j);
-  f.root_of.resize(nc);
-  f.chain.resize(nc);
+  std::vector<int> root_component(nc);
+  f.steps.resize(nc);
   for (int c = 0; c < nc; ++c) {
+    std::vector<int> chain;  // joints from the root down
     int at = c;
     while (placed_by[at] >= 0) {
-      f.chain[c].push_back(placed_by[at]);
+      chain.push_back(placed_by[at]);
       at = g.joints[placed_by[at]].parent;
     }
-    std::reverse(f.chain[c].begin(), f.chain[c].end());
-    f.root_of[c] = at;
+    std::reverse(chain.begin(), chain.end());
+    f.steps[c] = Steps(g, chain);
+    root_component[c] = at;
     if (at == c) f.roots.push_back(c);
+  }
+  for (int c = 0; c < nc; ++c) {
+    f.root.push_back(static_cast<int>(std::find(f.roots.begin(), f.roots.end(), root_component[c]) -
+                                      f.roots.begin()));
   }
   f.variable.assign(g.joints.size(), -1);
   for (size_t j = 0; j < g.joints.size(); ++j) {
@@ -94,31 +125,6 @@ double ReadVariable(const ConstraintGraph& g, const Joint& joint, const Values& 
   const Eigen::Quaterniond& r = motion.rotation;
   // (A quaternion and its negative are one turn: the angle in (-π, π].)
   return std::remainder(2 * std::atan2(r.vec().dot(joint.axis), r.w()), 2 * M_PI);
-}
-
-// A chain written as steps: a constant transform, then (for a joint with a variable) its
-// motion. Consecutive constants are multiplied out once (a link's child_from_joint⁻¹ with the
-// next joint's parent_from_joint; fixed joints whole), so the automatic derivatives go through
-// one constant and one motion per joint with a variable.
-struct Step {
-  Rigid3d before;
-  int joint = -1;  // its motion follows `before`; -1: none (the chain's last constant)
-};
-
-std::vector<Step> Steps(const ConstraintGraph& g, const std::vector<int>& chain) {
-  std::vector<Step> steps;
-  Rigid3d pending;
-  for (int j : chain) {
-    const Joint& joint = g.joints[j];
-    pending = pending * joint.parent_from_joint;
-    if (HasJointVariable(joint.type)) {
-      steps.push_back({pending, j});
-      pending = Rigid3d();
-    }
-    pending = pending * joint.child_from_joint.Inverse();
-  }
-  steps.push_back({pending, -1});
-  return steps;
 }
 
 // The chain's end from its root's pose `x`; `q(i)`: the variable of step i's joint (its
@@ -183,13 +189,11 @@ Parameters Read(const ConstraintGraph& g, const Forest& f, const Values& values)
 // Every component's pose from the parameters, into `values`.
 void Write(const ConstraintGraph& g, const Forest& f, const Parameters& p, Values* values) {
   for (size_t c = 0; c < g.components.size(); ++c) {
-    const int root =
-        static_cast<int>(std::find(f.roots.begin(), f.roots.end(), f.root_of[c]) - f.roots.begin());
-    const auto& r = p.rotation[root];
-    const auto& t = p.translation[root];
+    const auto& r = p.rotation[f.root[c]];
+    const auto& t = p.translation[f.root[c]];
     const Pose<double> start{Eigen::Quaterniond(r[0], r[1], r[2], r[3]).normalized(),
                              Eigen::Vector3d(t[0], t[1], t[2])};
-    const std::vector<Step> steps = Steps(g, f.chain[c]);
+    const std::vector<Step>& steps = f.steps[c];
     const Pose<double> x =
         Through(g, steps, start, [&](size_t i) { return p.q[f.variable[steps[i].joint]]; });
     values->poses[g.blocks[g.components[c].block].index] = Rigid3d(x.rotation, x.translation);
@@ -236,7 +240,7 @@ CeresRobotResult SolveWithCeres(const ConstraintGraph& g, const MeasurementSet& 
     if (!r) {
       r = new ComponentResidual;
       r->g = &g;
-      r->steps = Steps(g, f.chain[l.component]);
+      r->steps = f.steps[l.component];
     }
     r->local.push_back(g.components[l.component].points[l.feature].position);
     r->measured.push_back(m.xyz);
@@ -248,9 +252,7 @@ CeresRobotResult SolveWithCeres(const ConstraintGraph& g, const MeasurementSet& 
     // Derivatives two parameters at a time: the fastest stride of 1, 2, 4, 8 and 16 on the
     // PR2 and the Panda (0.97 against 1.35-2.7 ms a PR2 solve).
     auto* cost = new ceres::DynamicAutoDiffCostFunction<ComponentResidual, 2>(residual);
-    const int root =
-        static_cast<int>(std::find(f.roots.begin(), f.roots.end(), f.root_of[c]) - f.roots.begin());
-    std::vector<double*> blocks = {p.rotation[root].data(), p.translation[root].data()};
+    std::vector<double*> blocks = {p.rotation[f.root[c]].data(), p.translation[f.root[c]].data()};
     cost->AddParameterBlock(4);
     cost->AddParameterBlock(3);
     std::map<int, int> slot_of_variable;

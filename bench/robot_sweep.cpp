@@ -289,7 +289,7 @@ int Run(int argc, char** argv) {
             rms(1e6 * cell.point_sq, cell.points), Median(cell.ms));
         if (verbose) {
           for (int t : cell.failed)
-            fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + t);
+            fmt::print("   trial {} (seed {}) did not converge\n", t, 100 + first + t);
           if (cell.on_limit)
             fmt::print("   {} joint estimates held by an active inequality\n", cell.on_limit);
         }
