@@ -17,7 +17,8 @@ namespace cfuse::bench {
 inline constexpr const char* kSafeguards =
     "settle (every settling place), settle-joints (joints across their limits), widen (the "
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
-    "own-support (each part's own edges), smeared (blurred edges at their middle)";
+    "own-support (each part's own edges), smeared (blurred edges at their middle), "
+    "unknown-motion (the doubled range tried with no velocity yet)";
 
 inline void DisableSafeguards(const std::string& list, TrackerOptions* options) {
   std::stringstream in(list);
@@ -37,6 +38,8 @@ inline void DisableSafeguards(const std::string& list, TrackerOptions* options) 
       options->verification.component_z = -std::numeric_limits<double>::infinity();
     } else if (name == "smeared") {
       options->evidence_options.search.smeared_width = 1e9;
+    } else if (name == "unknown-motion") {
+      options->unknown_motion_share = 0;
     } else {
       throw std::invalid_argument("--without: unknown safeguard '" + name + "'; known: " +
                                   kSafeguards);

@@ -175,7 +175,17 @@ TrackedFrame Tracker::Track(const GrayView& image) {
   auto weak = [&](const TrackedFrame& f) {
     return !f.verified || f.verification.share < 0.9 * typical_share_;
   };
-  for (int d = 0; d <= options_.max_doublings && weak(out); ++d) {
+  // A track's second frame, with one verified frame behind and no velocity yet: the prediction
+  // is the last pose, and a moving object may be beyond a still one's range, its estimate
+  // pulled toward the prediction into a nearby minimum that the outline supports as well
+  // (Castle-simu from its true pose at frame 11: frame 12 verified 10 mm deep). The doubled
+  // range is tried whatever the first verified, and kept when its outline is clearly better
+  // supported. (Also after a frame that broke with the motion, it was tried: a lid in view
+  // again after an occlusion took a wider range's clutter, 108 degrees off, for 35 frames.)
+  const bool unknown_motion = options_.unknown_motion_share > 0 && verified_frames_ == 1 &&
+                              last_verified_ == frame_ - 1 && history_.size() < 2;
+  for (int d = 0; d <= options_.max_doublings && (weak(out) || (unknown_motion && d == 1));
+       ++d) {
     const auto start = Clock::now();
     const FramePrior prior = Prior(predicted, base * std::ldexp(1.0, d));
     out.times.prediction += Ms(start, Clock::now());
@@ -186,8 +196,10 @@ TrackedFrame Tracker::Track(const GrayView& image) {
     FrameTimes spent = out.times;
     spent += attempt.times;
     const int branches = out.branches + attempt.branches;
-    if (d == 0 || (attempt.verified &&
-                   (!out.verified || attempt.verification.share > out.verification.share))) {
+    const double better =
+        unknown_motion && d == 1 && out.verified ? options_.unknown_motion_share : 1.0;
+    if (d == 0 || (attempt.verified && (!out.verified || attempt.verification.share >
+                                                             better * out.verification.share))) {
       out = std::move(attempt);
     } else if (!out.verified && !attempt.verification.why.empty()) {
       out.verification = std::move(attempt.verification);  // a wider range's reason
@@ -218,6 +230,7 @@ TrackedFrame Tracker::Track(const GrayView& image) {
         100 * best_outline_, 100 * out.verification.share);
   }
   if (out.verified) {
+    ++verified_frames_;
     reacquisition_ring_ = 0;
     Remember(out.verification, &appearance_);
     // The model's error is learnt from frames as well supported as the sequence's best: one
@@ -233,8 +246,9 @@ TrackedFrame Tracker::Track(const GrayView& image) {
     // (the initial configuration is frame 0's guess: frame 0's estimate replaces it)
     if (history_.back().first == frame_) history_.pop_back();
     // A frame found only by doubling the range or away from the prediction broke with the
-    // motion so far (a knock, a jerk): the step to it is no velocity to carry on.
-    if (out.doublings > 0 || out.reacquired) history_.clear();
+    // motion so far (a knock, a jerk): the step to it is no velocity to carry on. (With no
+    // velocity before it, the step to it is the first.)
+    if ((out.doublings > 0 && !unknown_motion) || out.reacquired) history_.clear();
     history_.push_back({frame_, out.estimate.mean});
     if (history_.size() > 2) history_.erase(history_.begin());
     last_verified_ = frame_;

@@ -63,6 +63,10 @@ struct TrackerOptions {
   // gets the branches its parts need.
   int max_branches = 5;
   int max_doublings = 2;       // of the search range, before a frame is lost
+  // At a track's second frame (no velocity yet), the doubled range is tried even when the first
+  // verified, and kept when its outline's supported share is this many times the first's (0:
+  // not tried).
+  double unknown_motion_share = 1.05;
   int max_extrapolation = 4;   // frames the velocity is carried on past the last verified
   double max_lost_growth = 4;  // of the search range after lost frames (1 + frames lost)
   // The prediction's reach (3 standard deviations, in the image) for a still object, and its
@@ -276,6 +280,7 @@ class Tracker {
   // The same of the supported share: a set as well supported as the sequence's best verified
   // frames ends the search; others are compared with every branch's.
   double typical_share_ = 0;
+  int verified_frames_ = 0;
 };
 
 }  // namespace cfuse
