@@ -18,7 +18,7 @@ inline constexpr const char* kSafeguards =
     "settle (every settling place), settle-joints (joints across their limits), widen (the "
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle), "
-    "unknown-motion (the doubled range tried with no velocity yet)";
+    "unknown-motion (the doubled range tried at a track's second frame)";
 
 inline void DisableSafeguards(const std::string& list, TrackerOptions* options) {
   std::stringstream in(list);

@@ -184,8 +184,7 @@ TrackedFrame Tracker::Track(const GrayView& image) {
   // again after an occlusion took a wider range's clutter, 108 degrees off, for 35 frames.)
   const bool unknown_motion = options_.unknown_motion_share > 0 && verified_frames_ == 1 &&
                               last_verified_ == frame_ - 1 && history_.size() < 2;
-  for (int d = 0; d <= options_.max_doublings && (weak(out) || (unknown_motion && d == 1));
-       ++d) {
+  for (int d = 0; d <= options_.max_doublings && (weak(out) || (unknown_motion && d == 1)); ++d) {
     const auto start = Clock::now();
     const FramePrior prior = Prior(predicted, base * std::ldexp(1.0, d));
     out.times.prediction += Ms(start, Clock::now());
@@ -196,8 +195,7 @@ TrackedFrame Tracker::Track(const GrayView& image) {
     FrameTimes spent = out.times;
     spent += attempt.times;
     const int branches = out.branches + attempt.branches;
-    const double better =
-        unknown_motion && d == 1 && out.verified ? options_.unknown_motion_share : 1.0;
+    const double better = unknown_motion && d == 1 ? options_.unknown_motion_share : 1.0;
     if (d == 0 || (attempt.verified && (!out.verified || attempt.verification.share >
                                                              better * out.verification.share))) {
       out = std::move(attempt);

@@ -1,11 +1,11 @@
 #include "cfuse/vision/normal_search.h"
 
-#include "normal_search_internal.h"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+
+#include "normal_search_internal.h"
 
 #if defined(__SSE2__)
 #include <emmintrin.h>
@@ -35,8 +35,8 @@ inline bool Inside(const GrayView& image, float x, float y) {
 namespace internal {
 
 void FillProfileScalar(const GrayView& image, const Eigen::Vector2f& point,
-                       const Eigen::Vector2f& normal, const Eigen::Vector2f& tangent, int h,
-                       int K, int first, int last, float* profile) {
+                       const Eigen::Vector2f& normal, const Eigen::Vector2f& tangent, int h, int K,
+                       int first, int last, float* profile) {
   for (int i = first; i <= last; ++i) {
     const Eigen::Vector2f centre = point + static_cast<float>(i - K - 1) * normal;
     float sum = 0;
@@ -52,9 +52,9 @@ void FillProfileScalar(const GrayView& image, const Eigen::Vector2f& point,
 // The same profile four normal positions at a time, with the same operations in the same order
 // per lane (so the same floats as the scalar loop): reading the profile is most of a tracked
 // frame's time.
-void FillProfile(const GrayView& image, const Eigen::Vector2f& point,
-                 const Eigen::Vector2f& normal, const Eigen::Vector2f& tangent, int h, int K,
-                 int first, int last, float* profile) {
+void FillProfile(const GrayView& image, const Eigen::Vector2f& point, const Eigen::Vector2f& normal,
+                 const Eigen::Vector2f& tangent, int h, int K, int first, int last,
+                 float* profile) {
   const __m128 px = _mm_set1_ps(point.x()), py = _mm_set1_ps(point.y());
   const __m128 nx = _mm_set1_ps(normal.x()), ny = _mm_set1_ps(normal.y());
   const __m128 count = _mm_set1_ps(static_cast<float>(2 * h + 1));
@@ -64,9 +64,9 @@ void FillProfile(const GrayView& image, const Eigen::Vector2f& point,
   alignas(16) std::int32_t column[4], row[4];
   for (int i = first; i <= last; i += 4) {
     // Lanes past `last` repeat it (its taps are inside the image); their values are not kept.
-    const __m128 k = _mm_cvtepi32_ps(
-        _mm_setr_epi32(i - K - 1, std::min(i + 1, last) - K - 1, std::min(i + 2, last) - K - 1,
-                       std::min(i + 3, last) - K - 1));
+    const __m128 k = _mm_cvtepi32_ps(_mm_setr_epi32(i - K - 1, std::min(i + 1, last) - K - 1,
+                                                    std::min(i + 2, last) - K - 1,
+                                                    std::min(i + 3, last) - K - 1));
     const __m128 cx = _mm_add_ps(px, _mm_mul_ps(k, nx));
     const __m128 cy = _mm_add_ps(py, _mm_mul_ps(k, ny));
     __m128 sum = _mm_setzero_ps();
@@ -101,9 +101,9 @@ void FillProfile(const GrayView& image, const Eigen::Vector2f& point,
   }
 }
 #else
-void FillProfile(const GrayView& image, const Eigen::Vector2f& point,
-                 const Eigen::Vector2f& normal, const Eigen::Vector2f& tangent, int h, int K,
-                 int first, int last, float* profile) {
+void FillProfile(const GrayView& image, const Eigen::Vector2f& point, const Eigen::Vector2f& normal,
+                 const Eigen::Vector2f& tangent, int h, int K, int first, int last,
+                 float* profile) {
   FillProfileScalar(image, point, normal, tangent, h, K, first, last, profile);
 }
 #endif
