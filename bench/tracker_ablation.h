@@ -18,7 +18,8 @@ inline constexpr const char* kSafeguards =
     "settle (every settling place), settle-joints (joints across their limits), widen (the "
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle), "
-    "unknown-motion (the doubled range tried at a track's second frame)";
+    "unknown-motion (the doubled range tried at a track's second frame), ambiguous-places (a "
+    "settling place's pose as well supported elsewhere refuses the frame)";
 
 inline void DisableSafeguards(const std::string& list, TrackerOptions* options) {
   std::stringstream in(list);
@@ -40,6 +41,8 @@ inline void DisableSafeguards(const std::string& list, TrackerOptions* options) 
       options->evidence_options.search.smeared_width = 1e9;
     } else if (name == "unknown-motion") {
       options->unknown_motion_share = 0;
+    } else if (name == "ambiguous-places") {
+      options->refuse_ambiguous_places = false;
     } else {
       throw std::invalid_argument("--without: unknown safeguard '" + name + "'; known: " +
                                   kSafeguards);

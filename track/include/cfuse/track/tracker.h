@@ -33,7 +33,7 @@
 //     its step is not taken for a velocity.
 //  7. Settling. The first frame verified, and the first after a loss, is tracked again from
 //     other places and joint values (TrackerOptions::settle_places): a decisively better pose
-//     replaces it, an equally good one with a joint elsewhere refuses it as ambiguous.
+//     replaces it, an equally good one with a joint or a part elsewhere refuses it as ambiguous.
 //
 // The estimate's prior is the prediction; an estimate far outside it (a start far off, a knock)
 // is solved again with the prior widened, so that a wrong prediction does not pull it along
@@ -121,6 +121,9 @@ struct TrackerOptions {
   int settle_depths = 2;
   int settle_joint_values = 4;
   double decisive_share = 1.15;
+  // A place's pose that explains about as much with a rigid part more than `search_pixels` from
+  // the frame's (its points' RMS shift, in px at its depth) makes the frame ambiguous too.
+  bool refuse_ambiguous_places = true;
   MatchSearchOptions search;
   EvidenceOptions evidence_options;
   VerificationOptions verification;
@@ -236,6 +239,8 @@ class Tracker {
   std::vector<Values> JointPlaces(const Values& centre) const;
   // Whether the settling varies `joint` (a variable, not a mimic, between two rigid parts).
   bool Settleable(const Joint& joint) const;
+  // The most any rigid component's points move between `a` and `b` (RMS, px at its depth in `a`).
+  double Apart(const Values& a, const Values& b) const;
   // `joint`'s value in `values` (rad or m), and px in the image per unit of it (its child's
   // points at their RMS radius, or its shift, at the child's depth).
   double JointValue(const Joint& joint, const Values& values) const;

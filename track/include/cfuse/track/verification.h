@@ -63,7 +63,7 @@ enum class Refusal {
   kUndetermined,  // the visible edges' ends not known to max_position_sigma (tracker.h)
   kSpread,        // a part no better known than predicted in some direction (tracker.h)
   kOutdone,       // a better-supported pose left undetermined by its matches (tracker.h)
-  kAmbiguous,     // a joint far from this estimate's explains the outline as well (tracker.h)
+  kAmbiguous,     // another joint value or place explains the outline as well (tracker.h)
 };
 const char* RefusalName(Refusal refusal);
 
