@@ -10,6 +10,8 @@
 #include <cmath>
 #include <map>
 
+#include "cfuse/constraints/forward_kinematics.h"
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/geometry/pnp.h"
 #include "cfuse/interp/closed_form_pose.h"
 #include "cfuse/interp/joint_estimates.h"
@@ -384,6 +386,48 @@ void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured
   }
 }
 
+// The whole model posed by PnP at other values of each joint, the others at their nominal
+// values: the nominal configuration is one guess, and a part far from it (scissors opened wide)
+// can leave every start from it in another minimum. Each joint at kValues values across its
+// limits, or round a whole turn for a revolute joint without limits.
+std::vector<Values> JointSweepStarts(const ConstraintGraph& graph, const MeasurementSet& set,
+                                     const std::vector<ResolvedLabel>& used) {
+  std::vector<Values> out;
+  if (!set.camera || set.camera->model != Camera::Model::kPinhole) return out;
+  constexpr int kValues = 4;
+  const std::map<std::string, double> nominal = CompleteJointValues(graph, {});
+  for (const Joint& joint : graph.joints) {
+    if (!HasJointVariable(joint.type) || joint.mimic || !nominal.count(joint.name)) continue;
+    std::vector<double> values;
+    if (joint.limits) {
+      const auto [lower, upper] = *joint.limits;
+      for (int k = 0; k < kValues; ++k)
+        values.push_back(lower + (k + 0.5) * (upper - lower) / kValues);
+    } else if (!ModelOf(joint.type).VariableIsLength()) {
+      for (int k = 1; k < kValues; ++k) {
+        values.push_back(joint.nominal_position + 2 * M_PI * k / kValues);
+      }
+    }
+    for (double q : values) {
+      std::map<std::string, double> at = nominal;
+      at[joint.name] = q;
+      Values config = ForwardKinematics(graph, at);
+      Correspondences k;
+      for (const ResolvedLabel& r : used) {
+        k.Add(ModelPoint(graph, config, r.component, r.feature), set.points[r.measurement]);
+      }
+      PnpResult pnp;
+      if (!k.model3.empty() || !PoseFromProjections(*set.camera, k.model2, k.measured2, &pnp)) {
+        return out;
+      }
+      for (Rigid3d& pose : config.poses) pose = pnp.camera_from_object * pose;
+      for (Eigen::Vector3d& p : config.points) p = pnp.camera_from_object * p;
+      out.push_back(std::move(config));
+    }
+  }
+  return out;
+}
+
 void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& used,
                    Solution* solution) {
@@ -438,6 +482,17 @@ void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
   for (int round = 0; round < kMaxFlipRounds && Sound(*solution); ++round) {
     if (!solve_from(Flips(graph, set, used, anchors, solution->extent, solution->state.mean))) {
       break;
+    }
+  }
+  // A fit the test accepts but only just (the scissors opened wide, the answer's blade 73
+  // degrees off at p = 0.02 while the truth's minimum, p = 0.017, was reached from no start): the
+  // joints are swept for other minima, and the best one's neighbours solved again.
+  if (Sound(*solution) && solution->analysis.fit.p_value < options.explore_p_value &&
+      solve_from(JointSweepStarts(graph, set, used))) {
+    for (int round = 0; round < kMaxFlipRounds && Sound(*solution); ++round) {
+      if (!solve_from(Flips(graph, set, used, anchors, solution->extent, solution->state.mean))) {
+        break;
+      }
     }
   }
   // (`found` now holds every sound answer but the best, the first one included if replaced.)

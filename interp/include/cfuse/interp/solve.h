@@ -58,6 +58,9 @@ struct SolveOptions {
   // From image measurements, without a guess: solved again from the other closed-form start
   // and the mirror images of both (Solution::alternatives).
   bool explore_starts = true;
+  // ... and when the best fit's p-value is below this, from the whole model posed at other
+  // values of each joint too (0: never).
+  double explore_p_value = 0.05;
 };
 
 // A labelled measurement resolved to its model point.
