@@ -35,7 +35,8 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
 // better: the lamp's minima differ by one point or one arm at a time, and the answer's mirror
 // images alone left 3 of 50 answers on a worse minimum than the truth's, none said. The best fit
 // becomes the solution and the other distinct minima that the fit test does not reject its
-// alternatives.
+// alternatives. A best fit with a p-value below SolveOptions::explore_p_value is solved again
+// from the whole model posed by PnP at other values of each joint.
 void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& used,
                    Solution* solution);

@@ -1,6 +1,7 @@
 // Where a solve starts: closed-form poses from the labelled measurements, unmeasured points
 // placed by their constraints, a guess applied; and from one image the answer's neighbours
-// (mirror images, points mirrored through their anchors), each solved while one fits better.
+// (mirror images, points mirrored through their anchors), each solved while one fits better,
+// and for a fit accepted only just, the model posed at other values of each joint.
 #include <fmt/format.h>
 
 #include <Eigen/Cholesky>
@@ -386,6 +387,8 @@ void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured
   }
 }
 
+namespace {
+
 // The whole model posed by PnP at other values of each joint, the others at their nominal
 // values: the nominal configuration is one guess, and a part far from it (scissors opened wide)
 // can leave every start from it in another minimum. Each joint at kValues values across its
@@ -401,8 +404,9 @@ std::vector<Values> JointSweepStarts(const ConstraintGraph& graph, const Measure
     std::vector<double> values;
     if (joint.limits) {
       const auto [lower, upper] = *joint.limits;
-      for (int k = 0; k < kValues; ++k)
+      for (int k = 0; k < kValues; ++k) {
         values.push_back(lower + (k + 0.5) * (upper - lower) / kValues);
+      }
     } else if (!ModelOf(joint.type).VariableIsLength()) {
       for (int k = 1; k < kValues; ++k) {
         values.push_back(joint.nominal_position + 2 * M_PI * k / kValues);
@@ -427,6 +431,8 @@ std::vector<Values> JointSweepStarts(const ConstraintGraph& graph, const Measure
   }
   return out;
 }
+
+}  // namespace
 
 void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& used,
@@ -476,24 +482,23 @@ void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
     }
     return take_best(found.begin() + static_cast<std::ptrdiff_t>(before));
   };
-  solve_from(starts);
   const std::vector<std::vector<int>> anchors = DistanceAnchors(graph);
-  constexpr int kMaxFlipRounds = 4;
-  for (int round = 0; round < kMaxFlipRounds && Sound(*solution); ++round) {
-    if (!solve_from(Flips(graph, set, used, anchors, solution->extent, solution->state.mean))) {
-      break;
-    }
-  }
-  // A fit the test accepts but only just (the scissors opened wide, the answer's blade 73
-  // degrees off at p = 0.02 while the truth's minimum, p = 0.017, was reached from no start): the
-  // joints are swept for other minima, and the best one's neighbours solved again.
-  if (Sound(*solution) && solution->analysis.fit.p_value < options.explore_p_value &&
-      solve_from(JointSweepStarts(graph, set, used))) {
+  const auto solve_neighbours = [&] {
+    constexpr int kMaxFlipRounds = 4;
     for (int round = 0; round < kMaxFlipRounds && Sound(*solution); ++round) {
       if (!solve_from(Flips(graph, set, used, anchors, solution->extent, solution->state.mean))) {
         break;
       }
     }
+  };
+  solve_from(starts);
+  solve_neighbours();
+  // A fit the test accepts but only just (the scissors opened wide, the answer's blade 73
+  // degrees off at p = 0.02 while the truth's minimum, p = 0.017, was reached from no start): the
+  // joints are swept for other minima, and the best one's neighbours solved again.
+  if (Sound(*solution) && solution->analysis.fit.p_value < options.explore_p_value &&
+      solve_from(JointSweepStarts(graph, set, used))) {
+    solve_neighbours();
   }
   // (`found` now holds every sound answer but the best, the first one included if replaced.)
   std::sort(found.begin(), found.end(), better);
