@@ -6,9 +6,10 @@
 //   visp_sequences [--sequences castle-simu,castel] [--steps 1,2,3] [--repeat 3]
 //                  [--perturb N] [--seed 1] [--csv DIR] [--support] [--visp-scanline]
 //
-// ViSP runs at its default visibility (no scan-line test, which on Castle-simu and castel makes
-// it four times slower and no more accurate); --visp-scanline turns the test on. --support scores every
-// track's poses alike by the share of the outline the image supports.
+// ViSP runs at its default visibility, without the scan-line test: on Castle-simu and castel
+// the test makes it four times slower and no more accurate. --visp-scanline turns it on. The
+// references without truth (castel's, the cube's) keep it on, as they were first measured.
+// --support scores every track's poses alike by the share of the outline the image supports.
 //
 // Sequences (`cube` only when named: it is held back as an independent check):
 //   castle-simu  mbt-depth/Castle-simu: 40 rendered frames with the true camera pose of each;
@@ -483,6 +484,10 @@ int main(int argc, char** argv) {
   for (const std::string& name : sequences) {
     Sequence s = Load(name);
     s.visp.scanline_visibility = visp_scanline;
+    // The references without truth, ViSP's tracks with its scan-line test (without it, ViSP's
+    // track of the cube strays up to 10 cm from them).
+    Sequence with_scanline = s;
+    with_scanline.visp.scanline_visibility = true;
     const std::vector<cv::Mat> frames = Frames(s);
     const ConstraintGraph graph = ImportCao(s.cao);
     const std::vector<ModelEdge> edges = ModelEdges(graph);
@@ -497,23 +502,16 @@ int main(int argc, char** argv) {
         clouds.push_back(ReadCastelDepth(fmt::format(fmt::runtime(s.depth_format), s.first + k)));
         pixels.push_back(frames[k].data);
       }
-      // (with its scan-line visibility test, as the reference was first measured)
-      bench::VispOptions with_scanline = s.visp;
-      with_scanline.scanline_visibility = true;
       for (const bench::PeerFrame& f : bench::TrackWithVispDepth(
-               pixels, 640, 480, s.camera, s.cao, s.start, with_scanline, clouds, s.depth_config,
-               s.depth_from_color)) {
+               pixels, 640, 480, s.camera, s.cao, s.start, with_scanline.visp, clouds,
+               s.depth_config, s.depth_from_color)) {
         reference.push_back(f.camera_from_object);
       }
     }
     // ViSP's edges alone at step 1 too: the trajectory cfuse's should stay near.
     const std::vector<Rigid3d> visp_edges = TrackVisp(s, frames, all, s.start).poses;
-    if (reference.empty()) {
-      // With no truth and no depth (the cube), ViSP's edges with its scan-line test, as the
-      // reference was first measured: without it ViSP's track of the cube strays up to 10 cm.
-      Sequence with_scanline = s;
-      with_scanline.visp.scanline_visibility = true;
-      reference = TrackVisp(with_scanline, frames, all, s.start).poses;
+    if (reference.empty()) {  // no truth, no depth (the cube): ViSP's edges
+      reference = visp_scanline ? visp_edges : TrackVisp(with_scanline, frames, all, s.start).poses;
     }
     if (!csv_dir.empty()) {
       std::ofstream out(fs::path(csv_dir) / fmt::format("{}_reference.csv", name));
@@ -585,9 +583,9 @@ int main(int argc, char** argv) {
           }
           support_lines.push_back(fmt::format(
               "{} k = {}: the outline's share supported (model error 1 px), mean over the frames: "
-              "{:.3f} at cfuse's poses, {:.3f} at the reference's, {:.3f} at ViSP's edges'; "
-              "cfuse's above the reference's on {} of {} frames",
-              name, k, mine, ref, theirs, higher, picked.size()));
+              "{:.3f} at {}'s poses, {:.3f} at the reference's, {:.3f} at ViSP's edges'; "
+              "{}'s above the reference's on {} of {} frames",
+              name, k, mine, who, ref, theirs, who, higher, picked.size()));
         }
         std::vector<double> errors, from_visp;
         int accepted = 0, wrong = 0;

@@ -396,7 +396,10 @@ namespace {
 std::vector<Values> JointSweepStarts(const ConstraintGraph& graph, const MeasurementSet& set,
                                      const std::vector<ResolvedLabel>& used) {
   std::vector<Values> out;
-  if (!set.camera || set.camera->model != Camera::Model::kPinhole) return out;
+  const bool image_only = std::none_of(used.begin(), used.end(), [&](const ResolvedLabel& r) {
+    return set.points[r.measurement].is_3d;
+  });
+  if (!image_only || !set.camera || set.camera->model != Camera::Model::kPinhole) return out;
   constexpr int kValues = 4;
   const std::map<std::string, double> nominal = CompleteJointValues(graph, {});
   for (const Joint& joint : graph.joints) {
@@ -421,9 +424,7 @@ std::vector<Values> JointSweepStarts(const ConstraintGraph& graph, const Measure
         k.Add(ModelPoint(graph, config, r.component, r.feature), set.points[r.measurement]);
       }
       PnpResult pnp;
-      if (!k.model3.empty() || !PoseFromProjections(*set.camera, k.model2, k.measured2, &pnp)) {
-        return out;
-      }
+      if (!PoseFromProjections(*set.camera, k.model2, k.measured2, &pnp)) return out;
       for (Rigid3d& pose : config.poses) pose = pnp.camera_from_object * pose;
       for (Eigen::Vector3d& p : config.points) p = pnp.camera_from_object * p;
       out.push_back(std::move(config));
