@@ -59,7 +59,8 @@ struct SolveOptions {
   // and the mirror images of both (Solution::alternatives).
   bool explore_starts = true;
   // ... and when the best fit's p-value is below this, from the whole model posed at other
-  // values of each joint too (0: never).
+  // values of each joint too (0: never). `interpret` explores its answer's labelling so too
+  // when the answer's fit is below it (its solves start from the tree's estimate).
   double explore_p_value = 0.05;
 };
 
