@@ -213,6 +213,7 @@ int Run(int argc, char** argv) {
       if (oracle) {
         TrackerOptions quick;
         quick.settle_places = quick.settle_depths = quick.settle_joint_values = 0;
+        quick.settle_tilts = 0;
         Tracker tracker(c.graph, c.camera, truth, quick);
         const TrackedFrame f = tracker.Track(view);
         oracle_verified += f.verified;

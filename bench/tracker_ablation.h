@@ -15,7 +15,8 @@
 namespace cfuse::bench {
 
 inline constexpr const char* kSafeguards =
-    "settle (every settling place), settle-joints (joints across their limits), widen (the "
+    "settle (every settling place), settle-tilts (the places turned about the image's axes), "
+    "settle-joints (joints across their limits), widen (the "
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle), "
     "unknown-motion (the doubled range tried at a track's second frame), ambiguous-places (a "
@@ -28,6 +29,9 @@ inline void DisableSafeguards(const std::string& list, TrackerOptions* options) 
     if (name.empty()) continue;
     if (name == "settle") {
       options->settle_places = options->settle_depths = options->settle_joint_values = 0;
+      options->settle_tilts = 0;
+    } else if (name == "settle-tilts") {
+      options->settle_tilts = 0;
     } else if (name == "settle-joints") {
       options->settle_joint_values = 0;
     } else if (name == "widen") {

@@ -686,18 +686,21 @@ int main(int argc, char** argv) {
           if (err > 10 || px > 3) {
             ++wrong;
             const Verification& v = run.verification[i];
-            fmt::print(stderr,
-                       "perturbed {} trial {} frame {} (its {}th): verified {:.1f} mm / {:.1f} px off "
-                       "(start {:.0f} mm {:.0f} deg; sigma {:.1f} mm agreement {:.2f} share {:.2f} "
-                       "chance {:.2f} dominant {:.2f} "
-                       "least {:.2f} distance {:.2f} n {}) pose {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} "
-                       "{:.7f} {:.7f}\n",
-                       name, trial, picked[i], i + 1, err, px, mm, deg, 1000 * run.position_sigma[i],
-                       v.agreement, v.share, v.chance, v.dominant_share, v.least_component,
-                       v.mean_distance, v.samples, run.poses[i].translation.x(),
-                       run.poses[i].translation.y(), run.poses[i].translation.z(),
-                       run.poses[i].rotation.w(), run.poses[i].rotation.x(),
-                       run.poses[i].rotation.y(), run.poses[i].rotation.z());
+            fmt::print(
+                stderr,
+                "perturbed {} trial {} frame {} (its {}th): verified {:.1f} mm / {:.1f} px off "
+                "(start {:.0f} mm {:.0f} deg; sigma {:.1f} mm agreement {:.2f} share {:.2f} "
+                "chance {:.2f} dominant {:.2f} "
+                "least {:.2f} distance {:.2f} n {}) pose {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} "
+                "{:.7f} {:.7f}; started at {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} {:.7f} {:.7f}\n",
+                name, trial, picked[i], i + 1, err, px, mm, deg, 1000 * run.position_sigma[i],
+                v.agreement, v.share, v.chance, v.dominant_share, v.least_component,
+                v.mean_distance, v.samples, run.poses[i].translation.x(),
+                run.poses[i].translation.y(), run.poses[i].translation.z(),
+                run.poses[i].rotation.w(), run.poses[i].rotation.x(), run.poses[i].rotation.y(),
+                run.poses[i].rotation.z(), off.translation.x(), off.translation.y(),
+                off.translation.z(), off.rotation.w(), off.rotation.x(), off.rotation.y(),
+                off.rotation.z());
           }
         }
       }

@@ -83,12 +83,14 @@ TEST_CASE("places: the first frame is settled from places about its estimate, no
       RenderSequence(graph, StandardCamera(), StandardSequence(graph, "steady", 3, 2));
   TrackerOptions unsettled;
   unsettled.settle_places = unsettled.settle_depths = unsettled.settle_joint_values = 0;
+  unsettled.settle_tilts = 0;
   const Errors settled = Run(graph, sequence), plain = Run(graph, sequence, unsettled);
   for (const Errors* e : {&settled, &plain}) {
     CHECK(e->verified == 3);
     for (double t : e->translation_mm) CHECK(t < 5);
   }
-  // Four places on a ring, two in depth and four lid angles: each a search of its own.
+  // Four places on a ring, two in depth, four tilted and four lid angles: each a search of its
+  // own.
   CHECK(settled.track[0].branches > plain.track[0].branches);
   for (int i = 1; i < 3; ++i) CHECK(settled.track[i].branches == plain.track[i].branches);
 }

@@ -341,6 +341,7 @@ std::string Plainly(const TrackedFrame& f, const DetectorOptions& options) {
 TrackerOptions ForCandidates(TrackerOptions options, bool joints) {
   options.settle_places = 0;
   options.settle_depths = 0;
+  options.settle_tilts = 0;
   options.settle_joint_values = 0;
   options.max_doublings = std::min(options.max_doublings, joints ? 1 : 0);
   return options;

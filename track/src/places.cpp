@@ -100,6 +100,28 @@ Values Tracker::DepthPlace(const Values& centre, int k) const {
   return Shifted(centre, step * (k / 2 + 1) * (k % 2 == 0 ? 1 : -1) * at);
 }
 
+Values Tracker::TiltPlace(const Values& centre, int k) const {
+  const Eigen::Vector3d at = RootOrigin(centre);
+  if (at.z() <= 0) return centre;
+  // Turned about the image's x (k = 0, 1) or y axis (k = 2, 3) through the root's origin, each
+  // way in turn: the outline's points at the RMS radius move 2 x search_pixels (as a ring's),
+  // and its far side moves in depth as its near side comes out. A pose tilted so against the
+  // truth and moved in depth to make up for it lines up many of a castle's edges with others
+  // parallel to them.
+  const double outline =
+      std::max(radius_[graph_.components[0].block], 1e-3) * PixelsPerMetre(at.z());
+  const double angle = std::min(0.35, 2 * options_.search_pixels / outline);
+  const Eigen::Vector3d axis = k < 2 ? Eigen::Vector3d::UnitX() : Eigen::Vector3d::UnitY();
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(k % 2 == 0 ? angle : -angle, axis));
+  Values out = centre;
+  for (Rigid3d& pose : out.poses) {
+    pose.rotation = turn * pose.rotation;
+    pose.translation = at + turn * (pose.translation - at);
+  }
+  for (Eigen::Vector3d& point : out.points) point = at + turn * (point - at);
+  return out;
+}
+
 double Tracker::Apart(const Values& a, const Values& b) const {
   double worst = 0;
   for (const Component& c : graph_.components) {
@@ -198,6 +220,14 @@ void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   }
   for (int k = 0; k < options_.settle_depths; ++k) {
     places.push_back(DepthPlace(out->estimate.mean, k));
+  }
+  // (At a track's first frame only: after a loss the frames before held the object's
+  // attitude, and tilted places there found clutter more often than the object. And only on a
+  // weakly supported one: a tilted minimum lines up about half the outline.)
+  const bool tilt =
+      verified_frames_ == 0 && out->verification.share < options_.settle_tilts_below_share;
+  for (int k = 0; tilt && k < options_.settle_tilts; ++k) {
+    places.push_back(TiltPlace(out->estimate.mean, k));
   }
   for (Values& v : JointPlaces(out->estimate.mean)) places.push_back(std::move(v));
 

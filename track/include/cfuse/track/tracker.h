@@ -113,12 +113,17 @@ struct TrackerOptions {
   // parts, or nearer and turned, and a lid found shut on the box's rim while it stands open, can
   // pass every test of the outline (Castle-simu's tower on its window's edges). So the frame is
   // tracked again from places about its estimate: `settle_places` on a ring, `settle_depths`
-  // along the line of sight, and each joint at `settle_joint_values` values across its limits.
+  // along the line of sight, at a track's first frame verified on less than
+  // `settle_tilts_below_share` of its outline `settle_tilts` (at most 4) turned about the
+  // image's axes (a castle tilted 11 degrees and moved 19 mm deeper lines up half its edges with
+  // others), and each joint at `settle_joint_values` values across its limits.
   // A pose verified there that explains `decisive_share` times as much of the image
-  // (ExplainedEvidence, verification.h) replaces the frame's; one that explains about as much with a joint far
-  // from the frame's makes the frame ambiguous, and it is refused.
+  // (ExplainedEvidence, verification.h) replaces the frame's; one that explains about as much with
+  // a joint far from the frame's makes the frame ambiguous, and it is refused.
   int settle_places = 4;
   int settle_depths = 2;
+  int settle_tilts = 4;
+  double settle_tilts_below_share = 0.75;
   int settle_joint_values = 4;
   double decisive_share = 1.15;
   // A place's pose that explains about as much with a rigid part more than `search_pixels` from
@@ -233,6 +238,9 @@ class Tracker {
   // Place k about `centre` along the line of sight through the root's origin: nearer, further,
   // twice as near, ... (steps that move the outline's points as far as a ring's).
   Values DepthPlace(const Values& centre, int k) const;
+  // Place k about `centre` turned about the image's x or y axis through the root's origin
+  // (k = 0..3: about x one way and the other, then about y), as far as a ring's step.
+  Values TiltPlace(const Values& centre, int k) const;
   // `centre` with each joint (one at a time) at settle_joint_values values across its limits
   // (without limits, a revolute one turned round in as many steps), its child's subtree moved
   // with it.
