@@ -116,7 +116,9 @@ struct TrackerOptions {
   // along the line of sight, at a track's first frame verified on less than
   // `settle_tilts_below_share` of its outline `settle_tilts` (at most 4) turned about the
   // image's axes (a castle tilted 11 degrees and moved 19 mm deeper lines up half its edges with
-  // others), and each joint at `settle_joint_values` values across its limits.
+  // others; a tilted place's pose replaces the frame's only when it explains
+  // `settle_tilts_decisive_share` times as much, and never makes it ambiguous), and each joint
+  // at `settle_joint_values` values across its limits.
   // A pose verified there that explains `decisive_share` times as much of the image
   // (ExplainedEvidence, verification.h) replaces the frame's; one that explains about as much with
   // a joint far from the frame's makes the frame ambiguous, and it is refused.
@@ -124,6 +126,7 @@ struct TrackerOptions {
   int settle_depths = 2;
   int settle_tilts = 4;
   double settle_tilts_below_share = 0.75;
+  double settle_tilts_decisive_share = 1.5;
   int settle_joint_values = 4;
   double decisive_share = 1.15;
   // A place's pose that explains about as much with a rigid part more than `search_pixels` from
