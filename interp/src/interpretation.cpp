@@ -7,6 +7,7 @@
 
 #include "cfuse/kernel/check.h"
 #include "interpreter.h"
+#include "solve_internal.h"
 
 namespace cfuse {
 
@@ -118,9 +119,8 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
     if (search.image() && so.explore_starts &&
         out.solution->analysis.fit.p_value < so.explore_p_value) {
       Solution cold = search.SolveFrom(out.assignment, nullptr);
-      const bool sound =
-          cold.summary.converged && cold.contradictions.empty() && cold.invalid.empty();
-      if (sound && cold.analysis.fit.chi2 < out.solution->analysis.fit.chi2 - 0.01) {
+      if (internal::Sound(cold) &&
+          cold.analysis.fit.chi2 < out.solution->analysis.fit.chi2 - 0.01) {
         *out.solution = std::move(cold);
       }
     }

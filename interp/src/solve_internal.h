@@ -20,6 +20,9 @@ void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured
 double NormalisedSquare(const ConstraintGraph& graph, const MeasurementSet& set,
                         const ResolvedLabel& r, const Values& values);
 
+// Whether a solve ended in an answer: converged, no constraint contradicted, every factor valid.
+bool Sound(const Solution& s);
+
 // Steps 2-4 for the measurements of `labels`: solution's state, summary, contradictions and
 // invalid factors. An image measurement whose point is at or behind the camera at the start is
 // not fused, and reported in `invalid`.

@@ -117,10 +117,6 @@ bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& la
   return true;
 }
 
-bool Sound(const Solution& s) {
-  return s.summary.converged && s.contradictions.empty() && s.invalid.empty();
-}
-
 // For each single point held by `distance == nominal` to three or more other single points:
 // those points (its anchors). Three distances fix a point only up to its mirror image through
 // the anchors' plane.
@@ -344,6 +340,10 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
 }
 
 namespace internal {
+
+bool Sound(const Solution& s) {
+  return s.summary.converged && s.contradictions.empty() && s.invalid.empty();
+}
 
 void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured, Values* x) {
   std::vector<std::vector<int>> components_of(g.constraints.size());

@@ -240,13 +240,12 @@ void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   const std::optional<GaussianState> searched_undetermined = undetermined_;
   std::string ambiguous;  // a joint verified as well at a value far from the frame's
   const double frame_evidence = ExplainedEvidence(out->verification);
-  for (const Values& place : places) {
-    TrackedFrame attempt = TryPlace(image, place);
+  for (size_t index = 0; index < places.size(); ++index) {
+    TrackedFrame attempt = TryPlace(image, places[index]);
     spent += attempt.times;
     branches += attempt.branches;
     if (!attempt.verified) continue;
     const double evidence = ExplainedEvidence(attempt.verification);
-    const size_t index = static_cast<size_t>(&place - places.data());
     const bool tilted = index >= tilts_from && index < tilts_to;
     // A tilted place only replaces the frame, when it explains far more: on a real close-up
     // (castel) places tilted a few degrees find poses about as well supported, 10 mm from the
