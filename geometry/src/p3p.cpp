@@ -158,23 +158,27 @@ int ThreePointPoses(const std::array<Eigen::Vector3d, 3>& bearings,
   return count;
 }
 
+bool PixelBearing(const Camera& camera, const Eigen::Vector2d& pixel, Eigen::Vector3d* bearing) {
+  if (camera.model != Camera::Model::kPinhole) return false;
+  Eigen::Vector2d xy;
+  if (std::all_of(camera.distortion.begin(), camera.distortion.end(),
+                  [](double d) { return d == 0; })) {
+    xy = {(pixel.x() - camera.cx) / camera.fx, (pixel.y() - camera.cy) / camera.fy};
+  } else {
+    xy = UndistortPoint(camera, pixel);
+  }
+  *bearing = Eigen::Vector3d(xy.x(), xy.y(), 1).normalized();
+  return true;
+}
+
 std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
                                                const std::array<Eigen::Vector3d, 3>& object_points,
                                                const std::array<Eigen::Vector2d, 3>& image_points) {
   std::vector<Rigid3d> poses;
-  if (camera.model != Camera::Model::kPinhole) return poses;
-  std::array<Eigen::Vector2d, 3> xy;
-  if (std::all_of(camera.distortion.begin(), camera.distortion.end(),
-                  [](double d) { return d == 0; })) {
-    for (int i = 0; i < 3; ++i) {
-      xy[i] = {(image_points[i].x() - camera.cx) / camera.fx,
-               (image_points[i].y() - camera.cy) / camera.fy};
-    }
-  } else {
-    for (int i = 0; i < 3; ++i) xy[i] = UndistortPoint(camera, image_points[i]);
-  }
   std::array<Eigen::Vector3d, 3> bearings;
-  for (int i = 0; i < 3; ++i) bearings[i] = Eigen::Vector3d(xy[i].x(), xy[i].y(), 1).normalized();
+  for (int i = 0; i < 3; ++i) {
+    if (!PixelBearing(camera, image_points[i], &bearings[i])) return poses;
+  }
   std::array<Rigid3d, 4> found;
   const int n = ThreePointPoses(bearings, object_points, &found);
   poses.assign(found.begin(), found.begin() + n);

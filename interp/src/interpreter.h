@@ -457,6 +457,16 @@ class Interpreter {
   mutable Eigen::VectorXd sigma2_;    // their largest variances
   mutable double max_trace3_ = -1;    // the largest trace of a 3D measurement's covariance
   Eigen::VectorXd sigma2_image_;      // the same for image measurements (index2_)
+  // The image measurements binned by where they lie, cells as wide as the widest gate: the
+  // fourth point of every P3P pose looks in the 3 x 3 cells about it, not at every measurement.
+  struct ImageBins {
+    double cell = 1;
+    int columns = 1, rows = 1;
+    Eigen::Vector2d origin = Eigen::Vector2d::Zero();
+    std::vector<int> start, entries;  // per cell, its first entry; entries in index2_'s order
+  };
+  ImageBins image_bins_;
+  std::vector<Eigen::Vector3d> bearings_;  // per image measurement (index2_), for P3P
   mutable double diagonal_ = 1000;
 };
 

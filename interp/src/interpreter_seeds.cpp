@@ -180,30 +180,75 @@ void Interpreter::ImageSeeds(const std::vector<ModelPointRef>& s, int context,
     // Computed once: the check below runs for every P3P solution.
     sigma2_image_.resize(n);
     for (int m = 0; m < n; ++m) sigma2_image_[m] = LargestVariance(set_.points[index2_[m]].cov2);
+    bearings_.resize(n);
+    for (int m = 0; m < n; ++m) {
+      if (!PixelBearing(camera, set_.points[index2_[m]].uv, &bearings_[m])) bearings_.clear();
+      if (bearings_.empty()) break;
+    }
+    ImageBins& bins = image_bins_;
+    Eigen::AlignedBox2d box;
+    for (int m = 0; m < n; ++m) box.extend(set_.points[index2_[m]].uv);
+    bins.cell = std::max(k2 * std::sqrt(sigma2_image_.maxCoeff()), 1e-9);
+    bins.origin = box.min();
+    bins.columns = std::clamp(static_cast<int>(box.sizes().x() / bins.cell) + 1, 1, 256);
+    bins.rows = std::clamp(static_cast<int>(box.sizes().y() / bins.cell) + 1, 1, 256);
+    bins.cell = std::max({bins.cell, box.sizes().x() / bins.columns * (1 + 1e-12),
+                          box.sizes().y() / bins.rows * (1 + 1e-12)});
+    std::vector<std::vector<int>> cells(static_cast<size_t>(bins.columns) * bins.rows);
+    for (int m = 0; m < n; ++m) {  // in order: each cell's entries ascending
+      const Eigen::Vector2d c = (set_.points[index2_[m]].uv - bins.origin) / bins.cell;
+      const int x = std::clamp(static_cast<int>(c.x()), 0, bins.columns - 1);
+      const int y = std::clamp(static_cast<int>(c.y()), 0, bins.rows - 1);
+      cells[static_cast<size_t>(y) * bins.columns + x].push_back(m);
+    }
+    bins.start = {0};
+    bins.entries.clear();
+    for (const std::vector<int>& cell : cells) {
+      bins.entries.insert(bins.entries.end(), cell.begin(), cell.end());
+      bins.start.push_back(static_cast<int>(bins.entries.size()));
+    }
   }
+  if (bearings_.empty()) return;  // no P3P for this camera model
+  const ImageBins& bins = image_bins_;
+  std::array<Rigid3d, 4> poses;
   for (int i = 0; i < n; ++i)
     for (int j = 0; j < n; ++j)
       for (int l = 0; l < n; ++l) {
         if (i == j || j == l || i == l) continue;
         if (p3p_calls_ >= kMaxP3pCalls) return;
         ++p3p_calls_;
-        const std::array<Eigen::Vector2d, 3> image = {
-            set_.points[index2_[i]].uv, set_.points[index2_[j]].uv, set_.points[index2_[l]].uv};
-        for (const Rigid3d& camera_from_comp :
-             PosesFromThreeProjections(camera, object, image)) {
+        const int found =
+            ThreePointPoses({bearings_[i], bearings_[j], bearings_[l]}, object, &poses);
+        for (int p = 0; p < found; ++p) {
+          const Rigid3d& camera_from_comp = poses[p];
           const Eigen::Vector3d q = camera_from_comp * fourth;
           if (!(q.z() > 0)) continue;
           const Eigen::Vector2d uv = camera.Project<double>(q);
+          // The nearest measurement (in its own deviations) inside its gate, the first of equals
+          // in index2_'s order: every one inside lies in the 3 x 3 cells about uv.
           int match = -1;
           double best = 0;
-          for (int m = 0; m < n; ++m) {
-            if (m == i || m == j || m == l) continue;
-            const double d2 = (set_.points[index2_[m]].uv - uv).squaredNorm() / sigma2_image_[m];
-            if (d2 > k2 * k2) continue;
-            const double d = std::sqrt(d2);
-            if (match < 0 || d < best) {
-              match = m;
-              best = d;
+          const Eigen::Vector2d c = (uv - bins.origin) / bins.cell;
+          if (!(c.x() > -1 && c.y() > -1 && c.x() < bins.columns + 1 && c.y() < bins.rows + 1)) {
+            continue;
+          }
+          const int cx = static_cast<int>(std::floor(c.x())),
+                    cy = static_cast<int>(std::floor(c.y()));
+          for (int y = std::max(cy - 1, 0); y <= std::min(cy + 1, bins.rows - 1); ++y) {
+            for (int x = std::max(cx - 1, 0); x <= std::min(cx + 1, bins.columns - 1); ++x) {
+              const size_t b = static_cast<size_t>(y) * bins.columns + x;
+              for (int e = bins.start[b]; e < bins.start[b + 1]; ++e) {
+                const int m = bins.entries[e];
+                if (m == i || m == j || m == l) continue;
+                const double d2 =
+                    (set_.points[index2_[m]].uv - uv).squaredNorm() / sigma2_image_[m];
+                if (d2 > k2 * k2) continue;
+                const double d = std::sqrt(d2);
+                if (match < 0 || d < best || (d == best && m < match)) {
+                  match = m;
+                  best = d;
+                }
+              }
             }
           }
           if (match < 0) continue;

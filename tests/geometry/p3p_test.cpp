@@ -145,5 +145,37 @@ TEST_CASE("p3p: poses from three pixels, with and without lens distortion", "[ge
   }
 }
 
+TEST_CASE("p3p: a pixel's bearing points back at the point it shows, for pinhole cameras only",
+          "[geometry]") {
+  Camera camera;
+  camera.fx = 800;
+  camera.fy = 780;
+  camera.cx = 320;
+  camera.cy = 240;
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-0.4, 0.4), depth(0.5, 4);
+  for (const bool distorted : {false, true}) {
+    camera.distortion = {};
+    if (distorted) camera.distortion = {-0.2, 0.05, 1e-3, -5e-4, 0.01};
+    for (int trial = 0; trial < 50; ++trial) {
+      const Eigen::Vector3d x(u(rng), u(rng), depth(rng));
+      Eigen::Vector3d bearing;
+      REQUIRE(PixelBearing(camera, camera.Project<double>(x), &bearing));
+      INFO("distorted " << distorted << ", trial " << trial);
+      CHECK(bearing.norm() == Approx(1).epsilon(1e-12));
+      // Undistortion is iterative: good to about 1e-7 rad.
+      CHECK((bearing - x.normalized()).norm() < (distorted ? 1e-6 : 1e-12));
+    }
+  }
+  camera.model = Camera::Model::kOrthographic;
+  Eigen::Vector3d bearing;
+  CHECK_FALSE(PixelBearing(camera, Eigen::Vector2d(10, 20), &bearing));
+  const std::array<Eigen::Vector3d, 3> object = {
+      Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0.1, 0, 0), Eigen::Vector3d(0, 0.1, 0)};
+  CHECK(PosesFromThreeProjections(
+            camera, object, {Eigen::Vector2d(0, 0), Eigen::Vector2d(1, 0), Eigen::Vector2d(0, 1)})
+            .empty());
+}
+
 }  // namespace
 }  // namespace cfuse

@@ -26,8 +26,11 @@ int ThreePointPoses(const std::array<Eigen::Vector3d, 3>& bearings,
                     const std::array<Eigen::Vector3d, 3>& object_points,
                     std::array<Rigid3d, 4>* poses);
 
-// The same from three pixels of a pinhole camera, their bearings undistorted when the camera has
-// distortion (undistort.h): the seed hypotheses of the interpretation tree for image data.
+// The unit bearing (camera frame) of a pixel of a pinhole camera, undistorted when the camera
+// has distortion (undistort.h); false for any other camera model.
+bool PixelBearing(const Camera& camera, const Eigen::Vector2d& pixel, Eigen::Vector3d* bearing);
+
+// The same from three pixels of a pinhole camera, their bearings by PixelBearing.
 // Empty for an orthographic camera or a degenerate triple.
 std::vector<Rigid3d> PosesFromThreeProjections(const Camera& camera,
                                                const std::array<Eigen::Vector3d, 3>& object_points,
