@@ -19,12 +19,13 @@
 #include <cstdlib>
 #include <fstream>
 #include <map>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+#include <optional>
 #include <random>
 #include <sstream>
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
+#include "bench/chamfer_baseline.h"
 #include "bench/sweep_main.h"
 #include "cfuse/constraints/forward_kinematics.h"
 #include "cfuse/dsl/model_loader.h"
@@ -150,6 +151,11 @@ int Run(int argc, char** argv) {
   app.add_option("--hough-gap", hough_gap, "px bridged along a line");
   bool candidates = false;
   app.add_flag("--candidates", candidates, "with --verbose: each candidate tracked, and how far off");
+  bool chamfer = false;
+  app.add_flag("--chamfer", chamfer,
+               "the baseline instead of cfuse's hypotheses: chamfer matching over a pose grid, "
+               "the best poses tracked and decided among by the detector (bench/chamfer_baseline.h"
+               "; a model's joints at their nominal values)");
   std::string dump;
   app.add_option("--dump", dump,
                  "a directory for each render and its features (segments green, junctions red, "
@@ -178,6 +184,8 @@ int Run(int argc, char** argv) {
     } else {
       throw std::invalid_argument("unknown model '" + name + "'");
     }
+    std::optional<ChamferBaseline> baseline;
+    if (chamfer) baseline.emplace(c.graph, c.camera);
     std::mt19937 rng(seed);
     int right = 0, wrong = 0, missed = 0, oracle_verified = 0, oracle_plain = 0;
     std::vector<double> ms;
@@ -244,8 +252,17 @@ int Run(int argc, char** argv) {
       } else {
         options.segments.detector = *ParseDetector(detector_name);
       }
-      const Detection d =
-          Detect(c.graph, c.camera, view, options, detector_name == "hough" ? &lines : nullptr);
+      Detection d;
+      if (baseline) {
+        // The split: Canny and its distance transforms, the grid's matching, its refinement.
+        ChamferStats stats;
+        d = DetectFrom(c.graph, c.camera, view, baseline->Candidates(view, &stats), options);
+        d.stats.segment_ms = stats.edges_ms;
+        d.stats.orientation_ms = stats.matching_ms;
+        d.stats.ranking_ms = stats.refinement_ms;
+      } else {
+        d = Detect(c.graph, c.camera, view, options, detector_name == "hough" ? &lines : nullptr);
+      }
       ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                        .count());
       sum.segment_ms += d.stats.segment_ms;
@@ -301,9 +318,9 @@ int Run(int argc, char** argv) {
     std::sort(ms.begin(), ms.end());
     const double n = trials;
     fmt::print("| {} | {} | {} ({:.0f} %) | {} | {} | {:.1f} | {:.1f}, {:.1f}, {:.1f}, {:.1f} |\n",
-               name, trials, right, 100.0 * right / n, wrong, missed, ms[ms.size() / 2],
-               sum.segment_ms / n, sum.orientation_ms / n, sum.ranking_ms / n,
-               sum.tracking_ms / n);
+               chamfer ? name + " (chamfer baseline)" : name, trials, right, 100.0 * right / n,
+               wrong, missed, ms[ms.size() / 2], sum.segment_ms / n, sum.orientation_ms / n,
+               sum.ranking_ms / n, sum.tracking_ms / n);
     if (oracle) {
       fmt::print("  from the true pose: {} of {} verified, {} plain enough for detection\n",
                  oracle_verified, trials, oracle_plain);

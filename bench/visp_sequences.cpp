@@ -45,6 +45,7 @@
 #include <string>
 #include <vector>
 
+#include "bench/chamfer_baseline.h"
 #include "bench/tracker_ablation.h"
 #include "bench/visp_tracker.h"
 #include "cfuse/geometry/model_edges.h"
@@ -332,7 +333,8 @@ double PointSetDistance(const ConstraintGraph& graph, const Camera& camera, cons
 void DetectFrames(const ConstraintGraph& graph, const std::vector<ModelEdge>& edges,
                   const Sequence& s, const std::vector<cv::Mat>& frames,
                   const std::vector<Rigid3d>& reference, const DetectorOptions& options,
-                  bool verbose, bool show_candidates) {
+                  bool verbose, bool show_candidates,
+                  const bench::ChamferBaseline* baseline = nullptr) {
   int right = 0, wrong = 0, missed = 0;
   std::vector<double> ms, errors;
   DetectionStats sum;
@@ -340,7 +342,20 @@ void DetectFrames(const ConstraintGraph& graph, const std::vector<ModelEdge>& ed
     const GrayView view{frames[i].data, frames[i].cols, frames[i].rows,
                         static_cast<int>(frames[i].step)};
     const auto start = std::chrono::steady_clock::now();
-    const Detection d = Detect(graph, s.camera, view, options);
+    Detection d;
+    if (baseline) {
+      // The baseline's split: Canny and its distance transforms, the grid's matching, its
+      // refinement, tracking; "poses" counts the grid's placements.
+      bench::ChamferStats stats;
+      const std::vector<Values> poses = baseline->Candidates(view, &stats);
+      d = DetectFrom(graph, s.camera, view, poses, options);
+      d.stats.segment_ms = stats.edges_ms;
+      d.stats.orientation_ms = stats.matching_ms;
+      d.stats.ranking_ms = stats.refinement_ms;
+      d.stats.poses = stats.placements;
+    } else {
+      d = Detect(graph, s.camera, view, options);
+    }
     ms.push_back(
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
             .count());
@@ -390,28 +405,35 @@ void DetectFrames(const ConstraintGraph& graph, const std::vector<ModelEdge>& ed
                    v.share, v.dominant_share, v.agreement, v.spread, v.chance,
                    ExplainedEvidence(v), v.samples, v.least_component);
       }
+      if (show_candidates && baseline) {
+        fmt::print("  the reference's chamfer evidence {:.1f}\n",
+                   baseline->Evidence(view, Posed(graph, reference[i])));
+      }
       if (show_candidates) {
         for (const DetectionCandidate& c : d.candidates) {
           const Rigid3d pose =
               c.frame.estimate.mean.poses[0] * graph.nominal.poses[0].Inverse();
-          fmt::print("  candidate: component {} vertex {} evidence {:.1f}: {} {:.1f} px, "
-                     "explained {:.1f}, share {:.2f} agreement {:.2f} dominant {:.2f} spread {:.2f} chance {:.2f} {}\n",
-                     c.component, c.vertex, c.evidence, c.frame.verified ? "verified" : "refused",
-                     EdgeDistance(graph, edges, s.camera, pose, reference[i]),
-                     ExplainedEvidence(c.frame.verification), c.frame.verification.share,
-                     c.frame.verification.agreement, c.frame.verification.dominant_share,
-                     c.frame.verification.spread, c.frame.verification.chance,
-                     c.frame.verification.why);
+          const double evidence = baseline ? baseline->Evidence(view, c.values) : c.evidence;
+          fmt::print(
+              "  candidate: component {} vertex {} evidence {:.1f}: {} {:.1f} px, "
+              "explained {:.1f}, share {:.2f} agreement {:.2f} dominant {:.2f} spread {:.2f} "
+              "chance {:.2f} {}\n",
+              c.component, c.vertex, evidence, c.frame.verified ? "verified" : "refused",
+              EdgeDistance(graph, edges, s.camera, pose, reference[i]),
+              ExplainedEvidence(c.frame.verification), c.frame.verification.share,
+              c.frame.verification.agreement, c.frame.verification.dominant_share,
+              c.frame.verification.spread, c.frame.verification.chance, c.frame.verification.why);
         }
       }
     }
   }
   const double n = s.count;
-  fmt::print("| {} | {} | {}/{} | {} | {} | {} | {:.1f} | {:.1f}, {:.1f}, {:.1f}, {:.1f} | {:.0f} | "
-             "{:.0f} |\n",
-             s.name, graph.name, right, s.count, wrong, missed, Num(Median(errors)), Median(ms),
-             sum.segment_ms / n, sum.orientation_ms / n, sum.ranking_ms / n, sum.tracking_ms / n,
-             sum.junctions / n, sum.poses / n);
+  fmt::print(
+      "| {} | {} | {}/{} | {} | {} | {} | {:.1f} | {:.1f}, {:.1f}, {:.1f}, {:.1f} | {:.0f} | "
+      "{:.0f} |\n",
+      s.name, baseline ? graph.name + " (chamfer baseline)" : graph.name, right, s.count, wrong,
+      missed, Num(Median(errors)), Median(ms), sum.segment_ms / n, sum.orientation_ms / n,
+      sum.ranking_ms / n, sum.tracking_ms / n, sum.junctions / n, sum.poses / n);
 }
 
 int main(int argc, char** argv) {
@@ -446,6 +468,13 @@ int main(int argc, char** argv) {
                "cfuse's tracks detect the object after two frames lost, as `cfuse track` does");
   int candidates = 0;
   app.add_option("--candidates", candidates, "poses tracked per frame (--detect)");
+  int settle_places = -1;
+  app.add_option("--settle-places", settle_places,
+                 "places on the ring about a found pose it is settled from (--detect)");
+  bool chamfer = false;
+  app.add_flag("--chamfer", chamfer,
+               "with --detect: the baseline too, chamfer matching over a pose grid whose best "
+               "poses the detector tracks and decides among (bench/chamfer_baseline.h)");
   bool support = false;
   app.add_flag("--support", support,
                "how much of the outline the image supports at cfuse's, the reference's and "
@@ -526,7 +555,15 @@ int main(int argc, char** argv) {
     if (detect) {
       DetectorOptions detector;
       if (candidates > 0) detector.max_candidates = candidates;
+      if (settle_places >= 0) detector.tracker.settle_places = settle_places;
       DetectFrames(graph, edges, s, frames, reference, detector, verbose, show_candidates);
+      if (chamfer) {
+        const bench::ChamferBaseline baseline(graph, s.camera);
+        fmt::print("(chamfer baseline: {} templates made in {:.0f} ms)\n", baseline.templates(),
+                   baseline.training_ms());
+        DetectFrames(graph, edges, s, frames, reference, detector, verbose, show_candidates,
+                     &baseline);
+      }
       continue;
     }
     for (int k : steps) {

@@ -239,6 +239,34 @@ TEST_CASE("detector: noise finds nothing, and a search cut short says so", "[tra
   CHECK_FALSE(full.stats.poses_cut);
 }
 
+TEST_CASE("detector: poses from elsewhere tracked and decided among as detection's own",
+          "[tracker]") {
+  // DetectFrom is Detect's last step alone (for a baseline's hypotheses): the true pose among
+  // poses far off is found, and found alone; far-off poses alone find nothing, and say so.
+  const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));
+  const Camera camera = StandardCamera();
+  const std::vector<SequenceFrame> frames =
+      RenderSequence(graph, camera, StandardSequence(graph, "steady", 1, 1));
+  const GrayView view = testing::View(frames[0].rendering);
+  Values far = frames[0].truth;
+  for (Rigid3d& pose : far.poses) pose.translation += Eigen::Vector3d(0.3, 0.2, 0);
+  const Detection found = DetectFrom(graph, camera, view, {far, frames[0].truth});
+  REQUIRE(found.found.size() == 1);
+  CHECK(found.why.empty());
+  CHECK(SetDistance(graph, camera, found.found[0].estimate.mean, frames[0].truth) < 3);
+  CHECK(found.stats.candidates == 2);
+  CHECK(found.candidates.size() == 2);
+  CHECK_FALSE(found.candidates[0].frame.verified);
+
+  const Detection missed = DetectFrom(graph, camera, view, {far});
+  CHECK(missed.found.empty());
+  CHECK(missed.why == "none of 1 poses verified");
+  CHECK(DetectFrom(graph, camera, view, {}).why == "no pose to start from");
+  std::vector<std::uint8_t> small(100 * 80, 128);
+  CHECK_THROWS_WITH(DetectFrom(graph, camera, {small.data(), 100, 80, 100}, {far}),
+                    Catch::Contains("the image is 100 x 80, the camera's"));
+}
+
 TEST_CASE("detector: refuses an image of another size, an empty one, a model without edges",
           "[tracker]") {
   const ConstraintGraph graph = ImportCao(testing::SourcePath("tests/data/cao/file_box.cao"));

@@ -485,69 +485,24 @@ std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const
   return out;
 }
 
-Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
-                 const DetectorOptions& options, const std::vector<ImageSegment>* segments) {
-  if (image.data == nullptr || image.width <= 0 || image.height <= 0) {
-    throw InputError(SourceLocation(), "the image is empty");
-  }
-  if (camera.width != image.width || camera.height != image.height) {
-    throw InputError(SourceLocation(),
-                     fmt::format("the image is {} x {}, the camera's {} x {}", image.width,
-                                 image.height, camera.width, camera.height));
-  }
-  const std::vector<Shape> shapes = Shapes(graph);
-  if (shapes.empty()) {
-    throw InputError(SourceLocation(), fmt::format("model '{}' has no edges to find in an image",
-                                                   graph.name));
-  }
-  Detection out;
-  auto start = Clock::now();
-  out.segments = segments ? *segments : DetectSegments(image, options.segments);
-  out.junctions = FindJunctions(out.segments, options.junctions);
-  out.stats.segments = static_cast<int>(out.segments.size());
-  out.stats.junctions = static_cast<int>(out.junctions.size());
-  out.stats.segment_ms = Ms(start);
+namespace {
 
-  start = Clock::now();
-  const EdgeOrientations steps(image, options.orientations);
-  out.stats.orientation_ms = Ms(start);
-
-  start = Clock::now();
-  const int junctions =
-      std::min<int>(static_cast<int>(out.junctions.size()), options.max_junctions);
-  out.stats.junctions_cut = junctions < static_cast<int>(out.junctions.size());
-  std::vector<Scored> scored =
-      RankedPoses(shapes, {out.junctions.begin(), out.junctions.begin() + junctions}, camera,
-                  steps, options, &out.stats);
-  std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) {
-    if (a.evidence != b.evidence) return a.evidence > b.evidence;
-    if (a.junction != b.junction) return a.junction < b.junction;
-    if (a.shape != b.shape) return a.shape < b.shape;
-    return a.vertex < b.vertex;
-  });
-  const std::vector<const Scored*> kept = SpreadApart(scored, shapes, camera, options);
-  out.stats.ranking_ms = Ms(start);
-
-  // Step 4: each candidate tracked on this image.
-  start = Clock::now();
+// Step 4: each candidate (its `values` set) tracked on `image`, then the decision among those
+// verified (Detection::found, twins, candidates). Returns why the first answer refused was
+// refused, or "".
+std::string TrackAndDecide(const ConstraintGraph& graph, const Camera& camera,
+                           const GrayView& image, std::vector<DetectionCandidate> candidates,
+                           const DetectorOptions& options, Detection* out) {
   bool joints = false;
   for (const Joint& joint : graph.joints) joints = joints || HasJointVariable(joint.type);
   const TrackerOptions quick = ForCandidates(options.tracker, joints);
   std::vector<TrackedFrame> verified;
-  for (const Scored* p : kept) {
-    DetectionCandidate c;
-    c.component = shapes[p->shape].component;
-    c.vertex = p->vertex;
-    c.junction = p->junction;
-    c.evidence = p->evidence;
-    c.values = BestJoints(graph, shapes,
-                          Place(graph, shapes[p->shape].block, p->camera_from_component),
-                          c.component, camera, steps, options);
+  for (DetectionCandidate& c : candidates) {
     Tracker tracker(graph, camera, c.values, quick);
     c.frame = tracker.Track(image);
-    ++out.stats.candidates;
+    ++out->stats.candidates;
     if (c.frame.verified) verified.push_back(c.frame);
-    out.candidates.push_back(std::move(c));
+    out->candidates.push_back(std::move(c));
   }
   std::stable_sort(verified.begin(), verified.end(),
                    [](const TrackedFrame& a, const TrackedFrame& b) {
@@ -564,11 +519,11 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     if (refused.empty()) refused = why;
   };
   for (size_t i = 0; i < answers.size(); ++i) {
-    if (static_cast<int>(out.found.size()) >= options.max_results) break;
-    if (i > 0 && out.found.empty()) break;
+    if (static_cast<int>(out->found.size()) >= options.max_results) break;
+    if (i > 0 && out->found.empty()) break;
     const Answer& a = answers[i];
     bool taken = false;  // by an object found already
-    for (const TrackedFrame& g : out.found) {
+    for (const TrackedFrame& g : out->found) {
       taken = taken || Overlap(ProjectedPoints(graph, camera, g.estimate.mean), a.outline);
     }
     if (taken) continue;
@@ -604,10 +559,82 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
     } else if (const std::string plain = Plainly(settled, options); !plain.empty()) {
       refuse("refused when settled: " + plain);
     } else {
-      out.found.push_back(std::move(settled));
-      out.twins.push_back(a.twins);
+      out->found.push_back(std::move(settled));
+      out->twins.push_back(a.twins);
     }
   }
+  return refused;
+}
+
+// Refuses (InputError, its location left to the caller) an empty image, a camera without a size
+// or of another size than the image, and a model without edges; returns the model's shapes.
+std::vector<Shape> CheckedShapes(const ConstraintGraph& graph, const Camera& camera,
+                                 const GrayView& image) {
+  if (image.data == nullptr || image.width <= 0 || image.height <= 0) {
+    throw InputError(SourceLocation(), "the image is empty");
+  }
+  if (camera.width != image.width || camera.height != image.height) {
+    throw InputError(SourceLocation(),
+                     fmt::format("the image is {} x {}, the camera's {} x {}", image.width,
+                                 image.height, camera.width, camera.height));
+  }
+  std::vector<Shape> shapes = Shapes(graph);
+  if (shapes.empty()) {
+    throw InputError(SourceLocation(),
+                     fmt::format("model '{}' has no edges to find in an image", graph.name));
+  }
+  return shapes;
+}
+
+}  // namespace
+
+Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
+                 const DetectorOptions& options, const std::vector<ImageSegment>* segments) {
+  const std::vector<Shape> shapes = CheckedShapes(graph, camera, image);
+  Detection out;
+  auto start = Clock::now();
+  out.segments = segments ? *segments : DetectSegments(image, options.segments);
+  out.junctions = FindJunctions(out.segments, options.junctions);
+  out.stats.segments = static_cast<int>(out.segments.size());
+  out.stats.junctions = static_cast<int>(out.junctions.size());
+  out.stats.segment_ms = Ms(start);
+
+  start = Clock::now();
+  const EdgeOrientations steps(image, options.orientations);
+  out.stats.orientation_ms = Ms(start);
+
+  start = Clock::now();
+  const int junctions =
+      std::min<int>(static_cast<int>(out.junctions.size()), options.max_junctions);
+  out.stats.junctions_cut = junctions < static_cast<int>(out.junctions.size());
+  std::vector<Scored> scored =
+      RankedPoses(shapes, {out.junctions.begin(), out.junctions.begin() + junctions}, camera, steps,
+                  options, &out.stats);
+  std::sort(scored.begin(), scored.end(), [](const Scored& a, const Scored& b) {
+    if (a.evidence != b.evidence) return a.evidence > b.evidence;
+    if (a.junction != b.junction) return a.junction < b.junction;
+    if (a.shape != b.shape) return a.shape < b.shape;
+    return a.vertex < b.vertex;
+  });
+  const std::vector<const Scored*> kept = SpreadApart(scored, shapes, camera, options);
+  out.stats.ranking_ms = Ms(start);
+
+  // Step 4: each candidate tracked on this image.
+  start = Clock::now();
+  std::vector<DetectionCandidate> candidates;
+  for (const Scored* p : kept) {
+    DetectionCandidate c;
+    c.component = shapes[p->shape].component;
+    c.vertex = p->vertex;
+    c.junction = p->junction;
+    c.evidence = p->evidence;
+    c.values =
+        BestJoints(graph, shapes, Place(graph, shapes[p->shape].block, p->camera_from_component),
+                   c.component, camera, steps, options);
+    candidates.push_back(std::move(c));
+  }
+  const std::string refused =
+      TrackAndDecide(graph, camera, image, std::move(candidates), options, &out);
   out.stats.tracking_ms = Ms(start);
 
   if (out.found.empty()) {
@@ -626,6 +653,24 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
                             best.frame.verification.why.empty() ? "no matches"
                                                                 : best.frame.verification.why);
     }
+  }
+  return out;
+}
+
+Detection DetectFrom(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
+                     const std::vector<Values>& poses, const DetectorOptions& options) {
+  CheckedShapes(graph, camera, image);
+  Detection out;
+  const auto start = Clock::now();
+  std::vector<DetectionCandidate> candidates(poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) candidates[i].values = poses[i];
+  const std::string refused =
+      TrackAndDecide(graph, camera, image, std::move(candidates), options, &out);
+  out.stats.tracking_ms = Ms(start);
+  if (out.found.empty()) {
+    out.why = !refused.empty() ? refused
+              : poses.empty()  ? "no pose to start from"
+                               : fmt::format("none of {} poses verified", poses.size());
   }
   return out;
 }

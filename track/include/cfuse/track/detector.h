@@ -122,6 +122,11 @@ Detection Detect(const ConstraintGraph& graph, const Camera& camera, const GrayV
                  const DetectorOptions& options = {},
                  const std::vector<ImageSegment>* segments = nullptr);
 
+// Step 4 alone, for poses from elsewhere (a baseline's pose grid): each of `poses`, best first,
+// tracked on `image` and decided among as Detect decides. The same input errors as Detect.
+Detection DetectFrom(const ConstraintGraph& graph, const Camera& camera, const GrayView& image,
+                     const std::vector<Values>& poses, const DetectorOptions& options = {});
+
 // Where `values` projects every rigid component's points (pixels): what the detector compares
 // poses by, symmetric twins included.
 std::vector<Eigen::Vector2d> ProjectedPoints(const ConstraintGraph& graph, const Camera& camera,
