@@ -137,6 +137,7 @@ int Run(int argc, char** argv) {
           ++tally.trials;
           // As `cfuse solve` and `cfuse interpret` run them.
           std::optional<Solution> solution;
+          std::string mislabelled;  // interpret: each measurement labelled otherwise than truly
           if (clutter == 0) {
             SolveOptions options;
             options.reject_outliers = true;
@@ -144,6 +145,11 @@ int Run(int argc, char** argv) {
           } else {
             InterpretOptions options;
             const Interpretation in = Interpret(g, sim.measurements, options);
+            for (size_t m = 0; m < in.matches.size(); ++m) {
+              if (!SameModelPlace(g, sim.truth, sim.matches[m], in.matches[m])) {
+                mislabelled += fmt::format(" m{} '{}' as '{}';", m, sim.matches[m], in.matches[m]);
+              }
+            }
             if (in.Refusal().empty()) solution = in.solution;  // else refused, as the CLI does
           }
           if (!solution || !solution->accepted()) {
@@ -197,9 +203,10 @@ int Run(int argc, char** argv) {
               }
               fmt::print(stderr,
                          "{} seed {}: accepted (p {:.3g}), worst NEES {:.1f};{} {} alternatives, "
-                         "best NEES {:.1f}\n",
+                         "best NEES {:.1f}{}{}\n",
                          g.name, so.seed, solution->analysis.fit.p_value, worst, parts,
-                         solution->alternatives.size(), best_alternative);
+                         solution->alternatives.size(), best_alternative,
+                         mislabelled.empty() ? "" : "; mislabelled:", mislabelled);
             }
           }
         }

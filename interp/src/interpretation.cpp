@@ -163,6 +163,7 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
       }
       // One that matches as many points in the same plan and fits better is the answer: the
       // data tell them apart (a folding ruler read from its other end fits, but worse).
+      bool replaced = false;
       for (Interpreter::Found& other : others) {
         // (By more than rounding: an exact symmetry's reading fits the same.)
         const double chi2 = out.solution->analysis.fit.chi2;
@@ -171,6 +172,23 @@ Interpretation Interpret(const ConstraintGraph& graph, const MeasurementSet& set
           *out.solution = std::move(other.solution);
           other.solution = std::move(previous);
           std::swap(out.assignment, other.assignment);
+          record();
+          replaced = true;
+        }
+      }
+      // Refined under its own estimate, as a reading of a rejected answer is above: a reading
+      // carries the labels the search gave points only nearly where it puts them (a ruler read
+      // from its other end, a segment's corner on the next segment's), and each may have a
+      // point of its own now.
+      if (replaced && options.refine_rounds > 0) {
+        std::vector<int> assignment = out.assignment;
+        search.best_mean_ = out.solution->state.mean;
+        int changes = 0;
+        Solution refined = search.Refine(&assignment, options.refine_rounds, &changes);
+        if (changes > 0 && refined.accepted()) {
+          *out.solution = std::move(refined);
+          out.assignment = std::move(assignment);
+          out.stats.refinements += changes;
           record();
         }
       }
