@@ -10,20 +10,25 @@
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/fusion_order.h"
 #include "cfuse/kernel/measurements/point3.h"
+#include "cfuse/kernel/sparse_solver.h"
 
 namespace cfuse {
 namespace {
 
-std::vector<Factor> MeasuredModel(const ConstraintGraph& g, unsigned seed) {
+// `measured`, if given, gets each point at its measurement: the start a solve would take.
+std::vector<Factor> MeasuredModel(const ConstraintGraph& g, unsigned seed,
+                                  Values* measured = nullptr) {
   std::mt19937 rng(seed);
   std::normal_distribution<double> n(0, 0.002);
   const Rigid3d pose(
       Eigen::Quaterniond(Eigen::AngleAxisd(0.8, Eigen::Vector3d(1, 1, 0).normalized())),
       Eigen::Vector3d(0.1, -0.2, 1.5));
   std::vector<Factor> factors;
+  if (measured) *measured = g.nominal;
   for (const Component& c : g.components) {
     const Eigen::Vector3d z =
         pose * g.nominal.points[g.blocks[c.block].index] + Eigen::Vector3d(n(rng), n(rng), n(rng));
+    if (measured) measured->points[g.blocks[c.block].index] = z;
     factors.push_back({std::make_shared<Point3Residual>(z),
                        {c.block},
                        4e-6 * Eigen::Matrix3d::Identity(),
@@ -79,8 +84,7 @@ void BM_SolveLamp(benchmark::State& state) {
 BENCHMARK(BM_SolveLamp)->Unit(benchmark::kMicrosecond);
 
 // A chain of N points, each measured, consecutive ones at fixed distances.
-void BM_FuseChain(benchmark::State& state) {
-  const int n = static_cast<int>(state.range(0));
+ConstraintGraph Chain(int n) {
   ModelBuilder b("chain", "bench");
   for (int i = 0; i < n; ++i) {
     b.AddPointComponent("p" + std::to_string(i), Eigen::Vector3d(0.1 * i, 0.02 * (i % 3), 0), {});
@@ -94,7 +98,12 @@ void BM_FuseChain(benchmark::State& state) {
         "d" + std::to_string(i), ConstraintKind::kDistanceEquality, "distance ==",
         EqualityResidual::Create(d, MakeConstant(nominal, Quantity::Length()), b.Context()), {});
   }
-  const ConstraintGraph g = std::move(b).Build();
+  return std::move(b).Build();
+}
+
+void BM_FuseChain(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const ConstraintGraph g = Chain(n);
   const std::vector<Factor> factors = InFusionOrder(g, MeasuredModel(g, 2));
   const GaussianState prior = MakePrior(g.blocks, g.nominal, PriorScale{});
   for (auto _ : state) {
@@ -111,6 +120,60 @@ BENCHMARK(BM_FuseChain)
     ->Arg(300)
     ->Unit(benchmark::kMillisecond)
     ->Complexity();
+
+// The same chain solved at once by the sparse solver (sparse_solver.h), with every point's
+// covariance and that of each pair of neighbours, from each point at its measurement (where
+// `cfuse solve` would start: the filter's first pass has no start but the prior's mean).
+void BM_SolveSparseChain(benchmark::State& state) {
+  const int n = static_cast<int>(state.range(0));
+  const ConstraintGraph g = Chain(n);
+  Values start;
+  const std::vector<Factor> factors = MeasuredModel(g, 2, &start);
+  const Eigen::VectorXd variance = PriorVariance(g.blocks, PriorScale{});
+  std::vector<std::pair<int, int>> neighbours;
+  for (int i = 0; i + 1 < n; ++i) neighbours.emplace_back(i, i + 1);
+  SparseEstimate estimate;
+  SparseSummary summary;
+  for (auto _ : state) {
+    summary =
+        SolveSparse(factors, g.blocks, g.nominal, variance, neighbours, &estimate, {}, &start);
+    benchmark::DoNotOptimize(estimate.mean.points.data());
+  }
+  if (!summary.converged) state.SkipWithError("not converged");
+  state.counters["iterations"] = summary.iterations;
+  state.counters["factor_entries"] = static_cast<double>(summary.factor_nonzeros);
+  state.counters["max_residual_m"] = summary.max_constraint_residual;
+  state.SetComplexityN(n);
+}
+BENCHMARK(BM_SolveSparseChain)
+    ->Arg(10)
+    ->Arg(30)
+    ->Arg(100)
+    ->Arg(300)
+    ->Arg(1000)
+    ->Arg(3000)
+    ->Arg(10000)
+    ->Unit(benchmark::kMillisecond)
+    ->Complexity();
+
+// The lamp (BM_SolveLamp's problem) solved at once by the sparse solver, with every block's
+// covariance, from each point at its measurement.
+void BM_SolveSparseLamp(benchmark::State& state) {
+  const ConstraintGraph g = LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
+  Values start;
+  const std::vector<Factor> factors = MeasuredModel(g, 1, &start);
+  const Eigen::VectorXd variance = PriorVariance(g.blocks, PriorScale{});
+  SparseEstimate estimate;
+  SparseSummary summary;
+  for (auto _ : state) {
+    summary = SolveSparse(factors, g.blocks, g.nominal, variance, {}, &estimate, {}, &start);
+    benchmark::DoNotOptimize(estimate.mean.points.data());
+  }
+  if (!summary.converged) state.SkipWithError("not converged");
+  state.counters["iterations"] = summary.iterations;
+  state.counters["max_residual_m"] = summary.max_constraint_residual;
+}
+BENCHMARK(BM_SolveSparseLamp)->Unit(benchmark::kMicrosecond);
 
 }  // namespace
 }  // namespace cfuse

@@ -42,29 +42,34 @@ const char* StatusName(FusionSummary::Status status) {
   return "?";
 }
 
+Eigen::VectorXd PriorVariance(const std::vector<Block>& blocks, const PriorScale& scale) {
+  int n = 0;
+  for (const Block& b : blocks) n = std::max(n, b.tangent_offset + TangentDim(b.kind));
+  Eigen::VectorXd variance(n);
+  for (const Block& b : blocks) {
+    const int o = b.tangent_offset;
+    switch (b.kind) {
+      case BlockKind::kPoint:
+        variance.segment<3>(o).setConstant(scale.position * scale.position);
+        break;
+      case BlockKind::kPose:
+        variance.segment<3>(o).setConstant(scale.rotation * scale.rotation);
+        variance.segment<3>(o + 3).setConstant(scale.position * scale.position);
+        break;
+      case BlockKind::kSlack:
+        variance[o] = scale.slack * scale.slack;
+        break;
+    }
+  }
+  return variance;
+}
+
 GaussianState MakePrior(const std::vector<Block>& blocks, const Values& mean,
                         const PriorScale& scale) {
   GaussianState state;
   state.blocks = blocks;
   state.mean = mean;
-  int n = 0;
-  for (const Block& b : blocks) n = std::max(n, b.tangent_offset + TangentDim(b.kind));
-  state.prior_variance.resize(n);
-  for (const Block& b : blocks) {
-    const int o = b.tangent_offset;
-    switch (b.kind) {
-      case BlockKind::kPoint:
-        state.prior_variance.segment<3>(o).setConstant(scale.position * scale.position);
-        break;
-      case BlockKind::kPose:
-        state.prior_variance.segment<3>(o).setConstant(scale.rotation * scale.rotation);
-        state.prior_variance.segment<3>(o + 3).setConstant(scale.position * scale.position);
-        break;
-      case BlockKind::kSlack:
-        state.prior_variance[o] = scale.slack * scale.slack;
-        break;
-    }
-  }
+  state.prior_variance = PriorVariance(blocks, scale);
   state.covariance = state.prior_variance.asDiagonal();
   state.groups = CorrelationGroups(static_cast<int>(blocks.size()));
   return state;

@@ -64,6 +64,8 @@ struct PriorScale {
 };
 GaussianState MakePrior(const std::vector<Block>& blocks, const Values& mean,
                         const PriorScale& scale);
+// That prior's variances, laid out by Block::tangent_offset (its covariance is their diagonal).
+Eigen::VectorXd PriorVariance(const std::vector<Block>& blocks, const PriorScale& scale);
 
 struct FusionOptions {
   int max_iterations = 50;

@@ -1,0 +1,169 @@
+#include "sparse_ldlt.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include "cfuse/kernel/check.h"
+
+namespace cfuse::internal {
+
+void SparseLdlt::Analyze(const Eigen::SparseMatrix<double>& upper) {
+  CFUSE_CHECK_EQ(upper.rows(), upper.cols());
+  const int n = static_cast<int>(upper.cols());
+  parent_.assign(n, -1);
+  std::vector<int> flag(n), count(n, 0);
+  // Row k of L is nonzero where the elimination tree's paths from K's entries (i, k), i < k,
+  // reach before k.
+  auto row_pattern = [&](int k, auto&& visit) {
+    flag[k] = k;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(upper, k); it; ++it) {
+      for (int i = static_cast<int>(it.row()); i < k && flag[i] != k; i = parent_[i]) {
+        if (parent_[i] == -1) parent_[i] = k;
+        visit(i);
+        flag[i] = k;
+      }
+    }
+  };
+  for (int k = 0; k < n; ++k) row_pattern(k, [&](int i) { ++count[i]; });
+  start_.assign(n + 1, 0);
+  for (int j = 0; j < n; ++j) start_[j + 1] = start_[j] + count[j];
+  row_.assign(start_[n], 0);
+  l_.assign(start_[n], 0.0);
+  // The pattern itself, each column's rows in increasing order (as Factorize writes them).
+  std::fill(count.begin(), count.end(), 0);
+  std::fill(flag.begin(), flag.end(), -1);
+  for (int k = 0; k < n; ++k) row_pattern(k, [&](int i) { row_[start_[i] + count[i]++] = k; });
+  z_.clear();
+  d_.resize(n);
+  d_inverse_.resize(n);
+}
+
+std::span<const int> SparseLdlt::Column(int j) const {
+  return {row_.data() + start_[j], static_cast<size_t>(start_[j + 1] - start_[j])};
+}
+
+double SparseLdlt::L(long entry) const { return l_[entry]; }
+
+bool SparseLdlt::Factorize(const Eigen::SparseMatrix<double>& upper,
+                           const Eigen::VectorXd& drop_below) {
+  const int n = size();
+  CFUSE_CHECK_EQ(upper.cols(), n);
+  CFUSE_CHECK_EQ(drop_below.size(), n);
+  std::vector<double> y(n, 0.0);
+  std::vector<int> flag(n), pattern(n), filled(n, 0);
+  for (int k = 0; k < n; ++k) {
+    // Scatter column k of K's upper triangle and find row k's pattern of L in topological order.
+    int top = n;
+    flag[k] = k;
+    for (Eigen::SparseMatrix<double>::InnerIterator it(upper, k); it; ++it) {
+      int i = static_cast<int>(it.row());
+      y[i] += it.value();
+      int len = 0;
+      for (; i < k && flag[i] != k; i = parent_[i]) {
+        pattern[len++] = i;
+        flag[i] = k;
+      }
+      while (len > 0) pattern[--top] = pattern[--len];
+    }
+    double d = y[k];
+    y[k] = 0;
+    for (; top < n; ++top) {
+      const int i = pattern[top];
+      const double yi = y[i];
+      y[i] = 0;
+      const long end = start_[i] + filled[i];
+      // A dropped pivot's column is zero: its row takes no part in the rows after it.
+      double l_ki = 0;
+      if (d_inverse_[i] != 0) {
+        for (long p = start_[i]; p < end; ++p) y[row_[p]] -= l_[p] * yi;
+        l_ki = yi * d_inverse_[i];
+        d -= l_ki * yi;
+      }
+      row_[end] = k;
+      l_[end] = l_ki;
+      ++filled[i];
+    }
+    d_[k] = d;
+    if (!std::isfinite(d)) return false;
+    if (drop_below[k] < 0) {
+      if (d <= 0) return false;
+      d_inverse_[k] = 1 / d;
+    } else {
+      d_inverse_[k] = std::abs(d) <= drop_below[k] ? 0.0 : 1 / d;
+    }
+  }
+  z_.clear();
+  return true;
+}
+
+void SparseLdlt::Solve(Eigen::VectorXd* x) const {
+  const int n = size();
+  CFUSE_CHECK_EQ(x->size(), n);
+  Eigen::VectorXd& v = *x;
+  for (int j = 0; j < n; ++j) {
+    for (long p = start_[j]; p < start_[j + 1]; ++p) v[row_[p]] -= l_[p] * v[j];
+  }
+  v.array() *= d_inverse_.array();
+  for (int j = n - 1; j >= 0; --j) {
+    double s = v[j];
+    for (long p = start_[j]; p < start_[j + 1]; ++p) s -= l_[p] * v[row_[p]];
+    v[j] = s;
+  }
+}
+
+long SparseLdlt::Find(int i, int j) const {
+  const auto first = row_.begin() + start_[j], last = row_.begin() + start_[j + 1];
+  const auto it = std::lower_bound(first, last, i);
+  return it != last && *it == i ? static_cast<long>(it - row_.begin()) : -1;
+}
+
+double SparseLdlt::Inverse(int i, int j) const {
+  CFUSE_CHECK(!z_.empty() || row_.empty());
+  if (i == j) return z_diagonal_[i];
+  const long p = Find(std::max(i, j), std::min(i, j));
+  CFUSE_CHECK_MSG(p >= 0, fmt::format("an entry outside the factor's pattern: ({}, {})", i, j));
+  return z_[p];
+}
+
+// Z = K⁻¹ = D⁻¹ L⁻¹ + (I - Lᵀ) Z, read on the pattern of L from the last column back:
+//   Z(i, j) = δ_ij / d_j - Σ_{k > j, L(k, j) ≠ 0} L(k, j) Z(k, i)   for i >= j,
+// where every Z(k, i) needed lies on the pattern already computed (L's pattern is that of a
+// chordal graph: two rows of one column are joined).
+void SparseLdlt::ComputeSelectedInverse() {
+  const int n = size();
+  z_.assign(l_.size(), 0.0);
+  z_diagonal_.resize(n);
+  for (int j = n - 1; j >= 0; --j) {
+    const long first = start_[j], last = start_[j + 1];
+    if (d_inverse_[j] == 0) {
+      z_diagonal_[j] = 0;
+      continue;  // its column of L is zero and of Z too
+    }
+    for (long p = first; p < last; ++p) {
+      const int i = row_[p];
+      double s = 0;
+      for (long q = first; q < last; ++q) {
+        const int k = row_[q];
+        if (k == i) {
+          s -= l_[q] * z_diagonal_[i];
+          continue;
+        }
+        const long at = Find(std::max(k, i), std::min(k, i));
+        CFUSE_CHECK(at >= 0);
+        s -= l_[q] * z_[at];
+      }
+      z_[p] = s;
+    }
+    double s = d_inverse_[j];
+    for (long q = first; q < last; ++q) s -= l_[q] * z_[q];
+    z_diagonal_[j] = s;
+  }
+}
+
+int SparseLdlt::dropped() const {
+  int count = 0;
+  for (int i = 0; i < size(); ++i) count += d_inverse_[i] == 0;
+  return count;
+}
+
+}  // namespace cfuse::internal
