@@ -2,7 +2,7 @@
 // 5 (docs/benchmarks.md).
 //
 //   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods
-//   fusion,parametric,components,ceres]
+//   fusion,parametric,components,ceres,sparse]
 //
 // For every MODEL (a URDF or a model file) it writes a model that includes it and fixes three
 // markers on every component (a triangle 6-8 cm across about the component's frame, as a
@@ -13,7 +13,12 @@
 //   - parametric: Lowe's estimator on root poses and joint variables (cfuse/interp/parametric.h);
 //   - components: every component from its own markers alone, joints read off the poses;
 //   - ceres: the parametric problem solved by Ceres, a peer (bench/ceres_robot.h; only where
-//     Ceres was found at build time; its rows have no covariance, so no NEES).
+//     Ceres was found at build time; its rows have no covariance, so no NEES);
+//   - sparse: every marker and every constraint solved at once by the sparse solver
+//     (cfuse/kernel/sparse_solver.h) from solve's closed-form start, with the covariance of
+//     each component and of each joint's two components (what a joint's sigma needs); not yet
+//     behind `cfuse solve`: no refinement of the start, no active-set test on limits, and no
+//     NEES here (the sweep's NEES takes every pair of joints).
 // It prints a Markdown row per model, noise level and method: the trials that converged, the
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
 // mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
@@ -41,6 +46,8 @@
 #include "cfuse/interp/parametric.h"
 #include "cfuse/interp/simulate.h"
 #include "cfuse/interp/solve.h"
+#include "cfuse/kernel/measurements/point3.h"
+#include "cfuse/kernel/sparse_solver.h"
 
 namespace {
 
@@ -52,6 +59,48 @@ std::vector<std::string> Split(const std::string& s) {
   std::stringstream in(s);
   for (std::string item; std::getline(in, item, ',');) out.push_back(item);
   return out;
+}
+
+// The sparse method (see the top of the file). Its prior and tolerance are solve's.
+struct SparseRobot {
+  bool converged = false;
+  Values mean;
+};
+SparseRobot SolveSparseRobot(const ConstraintGraph& g, const MeasurementSet& set) {
+  const std::vector<ResolvedLabel> labels = ResolveLabels(g, set);
+  const Values start = ClosedFormStart(g, set, labels);
+  std::vector<Factor> factors;
+  for (const ResolvedLabel& r : labels) {
+    const MeasuredPoint& m = set.points[r.measurement];
+    const Component& c = g.components[r.component];
+    std::shared_ptr<const ResidualFunction> f;
+    if (c.rigid) {
+      f = std::make_shared<Point3Residual>(c.points[r.feature].position, m.xyz);
+    } else {
+      f = std::make_shared<Point3Residual>(m.xyz);
+    }
+    factors.push_back({f, {c.block}, Eigen::MatrixXd(m.cov3), m.label});
+  }
+  for (const Constraint& c : g.constraints) factors.push_back({c.residual, c.blocks, {}, c.name});
+  std::vector<std::pair<int, int>> pairs;
+  for (const Joint& j : g.joints) {
+    if (j.parent >= 0 && j.child >= 0) {
+      pairs.emplace_back(g.components[j.parent].block, g.components[j.child].block);
+    }
+  }
+  const SolveOptions defaults;
+  const double extent = ModelExtent(g);
+  PriorScale scale;
+  scale.position = defaults.prior_extent_factor * extent;
+  scale.rotation = defaults.prior_rotation_sigma;
+  scale.slack = defaults.prior_slack_sigma;
+  SparseOptions options;
+  options.constraint_tolerance = 1e-8 * extent;
+  SparseEstimate estimate;
+  const SparseSummary s = SolveSparse(factors, g.blocks, start, PriorVariance(g.blocks, scale),
+                                      pairs, &estimate, options, &start);
+  return {s.converged && s.max_constraint_residual <= options.constraint_tolerance,
+          std::move(estimate.mean)};
 }
 
 double Median(std::vector<double> v) {
@@ -182,14 +231,15 @@ int Run(int argc, char** argv) {
   int first = 0;
   app.add_option("--first", first, "first trial (seed 100 + first)");
   app.add_option("--methods", methods,
-                 "fusion, parametric, components, ceres (where Ceres was found at build time)");
+                 "fusion, parametric, components, ceres (where Ceres was found at build time), "
+                 "sparse");
   app.add_flag("--verbose", verbose, "list the trials that did not converge");
   CLI11_PARSE(app, argc, argv);
   for (const std::string& m : Split(methods)) {
 #ifdef CFUSE_HAVE_CERES
     if (m == "ceres") continue;
 #endif
-    if (m != "fusion" && m != "parametric" && m != "components") {
+    if (m != "fusion" && m != "parametric" && m != "components" && m != "sparse") {
       throw std::invalid_argument("unknown method '" + m + "'");
     }
   }
@@ -249,6 +299,7 @@ int Run(int argc, char** argv) {
         for (const Simulation& sim : sims) {
           const auto start = std::chrono::steady_clock::now();
           GaussianState estimate;
+          SparseRobot sparse;
           bool converged = false;
           bool with_covariance = true;
           if (method == "parametric") {
@@ -262,6 +313,10 @@ int Run(int argc, char** argv) {
             estimate = MakePrior(g.blocks, s.values, PriorScale{});  // its mean; no covariance
             with_covariance = false;
 #endif
+          } else if (method == "sparse") {
+            sparse = SolveSparseRobot(g, sim.measurements);
+            converged = sparse.converged;
+            with_covariance = false;
           } else {
             SolveOptions options;
             options.use_constraints_between_components = method == "fusion";
@@ -272,6 +327,8 @@ int Run(int argc, char** argv) {
           const double ms =
               std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                   .count();
+          // Its mean only (see the top), and outside the time: a dense prior is not its cost.
+          if (method == "sparse") estimate = MakePrior(g.blocks, sparse.mean, PriorScale{});
           Score(g, sim.truth, estimate, converged, ms, noise, &cell, with_covariance);
         }
         auto rms = [](double sq, int n) {

@@ -34,6 +34,7 @@ void SparseLdlt::Analyze(const Eigen::SparseMatrix<double>& upper) {
   std::fill(flag.begin(), flag.end(), -1);
   for (int k = 0; k < n; ++k) row_pattern(k, [&](int i) { row_[start_[i] + count[i]++] = k; });
   z_.clear();
+  inverse_ready_ = false;
   d_.resize(n);
   d_inverse_.resize(n);
 }
@@ -49,6 +50,8 @@ bool SparseLdlt::Factorize(const Eigen::SparseMatrix<double>& upper,
   const int n = size();
   CFUSE_CHECK_EQ(upper.cols(), n);
   CFUSE_CHECK_EQ(drop_below.size(), n);
+  z_.clear();
+  inverse_ready_ = false;
   std::vector<double> y(n, 0.0);
   std::vector<int> flag(n), pattern(n), filled(n, 0);
   for (int k = 0; k < n; ++k) {
@@ -92,7 +95,6 @@ bool SparseLdlt::Factorize(const Eigen::SparseMatrix<double>& upper,
       d_inverse_[k] = std::abs(d) <= drop_below[k] ? 0.0 : 1 / d;
     }
   }
-  z_.clear();
   return true;
 }
 
@@ -118,7 +120,7 @@ long SparseLdlt::Find(int i, int j) const {
 }
 
 double SparseLdlt::Inverse(int i, int j) const {
-  CFUSE_CHECK(!z_.empty() || row_.empty());
+  CFUSE_CHECK(inverse_ready_);
   if (i == j) return z_diagonal_[i];
   const long p = Find(std::max(i, j), std::min(i, j));
   CFUSE_CHECK_MSG(p >= 0, fmt::format("an entry outside the factor's pattern: ({}, {})", i, j));
@@ -126,38 +128,38 @@ double SparseLdlt::Inverse(int i, int j) const {
 }
 
 // Z = K⁻¹ = D⁻¹ L⁻¹ + (I - Lᵀ) Z, read on the pattern of L from the last column back:
-//   Z(i, j) = δ_ij / d_j - Σ_{k > j, L(k, j) ≠ 0} L(k, j) Z(k, i)   for i >= j,
-// where every Z(k, i) needed lies on the pattern already computed (L's pattern is that of a
-// chordal graph: two rows of one column are joined).
+//   Z(i, j) = δ_ij / d_j - Σ_{k > j, L(k, j) ≠ 0} L(k, j) Z(k, i)   for i >= j.
+// Every Z(k, i) needed lies on the pattern already computed: two rows k < i of column j are
+// rows of column k too (L's pattern is that of a chordal graph). Each such Z(i, k) serves both
+// sums, Z(i, j)'s and Z(k, j)'s; column k of Z is scattered into a dense vector to read them.
 void SparseLdlt::ComputeSelectedInverse() {
   const int n = size();
   z_.assign(l_.size(), 0.0);
   z_diagonal_.resize(n);
+  std::vector<double> w(n, 0.0);
   for (int j = n - 1; j >= 0; --j) {
     const long first = start_[j], last = start_[j + 1];
     if (d_inverse_[j] == 0) {
       z_diagonal_[j] = 0;
       continue;  // its column of L is zero and of Z too
     }
-    for (long p = first; p < last; ++p) {
-      const int i = row_[p];
-      double s = 0;
-      for (long q = first; q < last; ++q) {
-        const int k = row_[q];
-        if (k == i) {
-          s -= l_[q] * z_diagonal_[i];
-          continue;
-        }
-        const long at = Find(std::max(k, i), std::min(k, i));
-        CFUSE_CHECK(at >= 0);
-        s -= l_[q] * z_[at];
+    for (long q = first; q < last; ++q) {
+      const int k = row_[q];
+      const double l_kj = l_[q];
+      z_[q] -= l_kj * z_diagonal_[k];
+      for (long e = start_[k]; e < start_[k + 1]; ++e) w[row_[e]] = z_[e];
+      for (long q2 = q + 1; q2 < last; ++q2) {
+        const double z_ik = w[row_[q2]];
+        z_[q2] -= l_kj * z_ik;
+        z_[q] -= l_[q2] * z_ik;
       }
-      z_[p] = s;
+      for (long e = start_[k]; e < start_[k + 1]; ++e) w[row_[e]] = 0;
     }
     double s = d_inverse_[j];
     for (long q = first; q < last; ++q) s -= l_[q] * z_[q];
     z_diagonal_[j] = s;
   }
+  inverse_ready_ = true;
 }
 
 int SparseLdlt::dropped() const {

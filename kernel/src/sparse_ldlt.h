@@ -33,6 +33,8 @@ class SparseLdlt {
   // The entries of K⁻¹ (the dropped rows left out) on the pattern of L and the diagonal;
   // then Inverse(i, j) reads them.
   void ComputeSelectedInverse();
+  // Whether it was computed since the last factorisation.
+  bool has_selected_inverse() const { return inverse_ready_; }
   // K⁻¹(i, j) for i == j or (i, j) in the pattern of L (either order). InternalError if not.
   double Inverse(int i, int j) const;
 
@@ -58,6 +60,7 @@ class SparseLdlt {
   Eigen::VectorXd d_;          // D
   Eigen::VectorXd d_inverse_;  // 1 / D, 0 for a dropped pivot
   Eigen::VectorXd z_diagonal_;
+  bool inverse_ready_ = false;
 };
 
 }  // namespace cfuse::internal

@@ -364,7 +364,7 @@ SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<
   estimate->own_.assign(blocks.size(), Eigen::MatrixXd());
   estimate->pairs_.clear();
   if (summary.factorized) {
-    ldlt.ComputeSelectedInverse();
+    if (!ldlt.has_selected_inverse()) ldlt.ComputeSelectedInverse();
     // The chart at the solution: G = Jr(δθ) on each rotation, as SolveBatch and the filter.
     auto chart = [&](int b) {
       const int dim = TangentDim(blocks[b].kind);

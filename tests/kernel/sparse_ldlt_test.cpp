@@ -7,6 +7,8 @@
 #include <catch2/catch.hpp>
 #include <random>
 
+#include "cfuse/kernel/check.h"
+
 namespace cfuse::internal {
 namespace {
 
@@ -61,6 +63,8 @@ TEST_CASE("sparse ldlt: solves and the selected inverse match the dense inverse"
     ldlt.Analyze(upper);
     REQUIRE(ldlt.Factorize(upper, drop));
     CHECK(ldlt.dropped() == 0);
+    CHECK_FALSE(ldlt.has_selected_inverse());
+    CHECK_THROWS_AS(ldlt.Inverse(0, 0), InternalError);  // not computed for this factor yet
     const Eigen::VectorXd b = Eigen::VectorXd::Random(n + m);
     Eigen::VectorXd x = b;
     ldlt.Solve(&x);
