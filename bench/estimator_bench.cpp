@@ -121,6 +121,24 @@ BENCHMARK(BM_FuseChain)
     ->Unit(benchmark::kMillisecond)
     ->Complexity();
 
+// Times SolveSparse on one problem, from `start`, and reports its iterations and the
+// constraints' largest residual.
+void RunSparse(benchmark::State& state, const ConstraintGraph& g,
+               const std::vector<Factor>& factors, const Values& start,
+               const std::vector<std::pair<int, int>>& pairs) {
+  const Eigen::VectorXd variance = PriorVariance(g.blocks, PriorScale{});
+  SparseEstimate estimate;
+  SparseSummary summary;
+  for (auto _ : state) {
+    summary = SolveSparse(factors, g.blocks, g.nominal, variance, pairs, &estimate, {}, &start);
+    benchmark::DoNotOptimize(estimate.mean.points.data());
+  }
+  if (!summary.converged) state.SkipWithError("not converged");
+  state.counters["iterations"] = summary.iterations;
+  state.counters["factor_entries"] = static_cast<double>(summary.factor_nonzeros);
+  state.counters["max_residual_m"] = summary.max_constraint_residual;
+}
+
 // The same chain solved at once by the sparse solver (sparse_solver.h), with every point's
 // covariance and that of each pair of neighbours, from each point at its measurement (where
 // `cfuse solve` would start: the filter's first pass has no start but the prior's mean).
@@ -129,20 +147,9 @@ void BM_SolveSparseChain(benchmark::State& state) {
   const ConstraintGraph g = Chain(n);
   Values start;
   const std::vector<Factor> factors = MeasuredModel(g, 2, &start);
-  const Eigen::VectorXd variance = PriorVariance(g.blocks, PriorScale{});
   std::vector<std::pair<int, int>> neighbours;
   for (int i = 0; i + 1 < n; ++i) neighbours.emplace_back(i, i + 1);
-  SparseEstimate estimate;
-  SparseSummary summary;
-  for (auto _ : state) {
-    summary =
-        SolveSparse(factors, g.blocks, g.nominal, variance, neighbours, &estimate, {}, &start);
-    benchmark::DoNotOptimize(estimate.mean.points.data());
-  }
-  if (!summary.converged) state.SkipWithError("not converged");
-  state.counters["iterations"] = summary.iterations;
-  state.counters["factor_entries"] = static_cast<double>(summary.factor_nonzeros);
-  state.counters["max_residual_m"] = summary.max_constraint_residual;
+  RunSparse(state, g, factors, start, neighbours);
   state.SetComplexityN(n);
 }
 BENCHMARK(BM_SolveSparseChain)
@@ -162,16 +169,7 @@ void BM_SolveSparseLamp(benchmark::State& state) {
   const ConstraintGraph g = LoadModel(std::string(CFUSE_SOURCE_DIR) + "/examples/lamp.yaml");
   Values start;
   const std::vector<Factor> factors = MeasuredModel(g, 1, &start);
-  const Eigen::VectorXd variance = PriorVariance(g.blocks, PriorScale{});
-  SparseEstimate estimate;
-  SparseSummary summary;
-  for (auto _ : state) {
-    summary = SolveSparse(factors, g.blocks, g.nominal, variance, {}, &estimate, {}, &start);
-    benchmark::DoNotOptimize(estimate.mean.points.data());
-  }
-  if (!summary.converged) state.SkipWithError("not converged");
-  state.counters["iterations"] = summary.iterations;
-  state.counters["max_residual_m"] = summary.max_constraint_residual;
+  RunSparse(state, g, factors, start, {});
 }
 BENCHMARK(BM_SolveSparseLamp)->Unit(benchmark::kMicrosecond);
 

@@ -14,36 +14,25 @@ void SparseLdlt::Analyze(const Eigen::SparseMatrix<double>& upper) {
   std::vector<int> flag(n), count(n, 0);
   // Row k of L is nonzero where the elimination tree's paths from K's entries (i, k), i < k,
   // reach before k.
-  auto row_pattern = [&](int k, auto&& visit) {
+  for (int k = 0; k < n; ++k) {
     flag[k] = k;
     for (Eigen::SparseMatrix<double>::InnerIterator it(upper, k); it; ++it) {
       for (int i = static_cast<int>(it.row()); i < k && flag[i] != k; i = parent_[i]) {
         if (parent_[i] == -1) parent_[i] = k;
-        visit(i);
+        ++count[i];
         flag[i] = k;
       }
     }
-  };
-  for (int k = 0; k < n; ++k) row_pattern(k, [&](int i) { ++count[i]; });
+  }
   start_.assign(n + 1, 0);
   for (int j = 0; j < n; ++j) start_[j + 1] = start_[j] + count[j];
   row_.assign(start_[n], 0);
   l_.assign(start_[n], 0.0);
-  // The pattern itself, each column's rows in increasing order (as Factorize writes them).
-  std::fill(count.begin(), count.end(), 0);
-  std::fill(flag.begin(), flag.end(), -1);
-  for (int k = 0; k < n; ++k) row_pattern(k, [&](int i) { row_[start_[i] + count[i]++] = k; });
   z_.clear();
   inverse_ready_ = false;
-  d_.resize(n);
-  d_inverse_.resize(n);
+  d_ = Eigen::VectorXd::Zero(n);
+  d_inverse_ = Eigen::VectorXd::Zero(n);
 }
-
-std::span<const int> SparseLdlt::Column(int j) const {
-  return {row_.data() + start_[j], static_cast<size_t>(start_[j + 1] - start_[j])};
-}
-
-double SparseLdlt::L(long entry) const { return l_[entry]; }
 
 bool SparseLdlt::Factorize(const Eigen::SparseMatrix<double>& upper,
                            const Eigen::VectorXd& drop_below) {

@@ -11,7 +11,6 @@
 
 #include <Eigen/Core>
 #include <Eigen/SparseCore>
-#include <span>
 #include <vector>
 
 namespace cfuse::internal {
@@ -38,13 +37,8 @@ class SparseLdlt {
   // K⁻¹(i, j) for i == j or (i, j) in the pattern of L (either order). InternalError if not.
   double Inverse(int i, int j) const;
 
-  // The rows of column j of L (below the diagonal), increasing; known from Analyze on. Entry
-  // p of Column(j) is L(ColumnStart(j) + p).
-  std::span<const int> Column(int j) const;
-  long ColumnStart(int j) const { return start_[j]; }
-  double L(long entry) const;
-
   int size() const { return static_cast<int>(d_.size()); }
+  // Pivots dropped by the factorisation (meaningful after one that succeeded).
   int dropped() const;
   long nonzeros() const { return static_cast<long>(row_.size()); }
 

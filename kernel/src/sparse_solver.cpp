@@ -103,7 +103,8 @@ Layout MakeLayout(const std::vector<Factor>& factors, const std::vector<Block>& 
 }
 
 // K's upper triangle (positions of Layout) at one linearisation, the right-hand side, and each
-// constraint row's threshold for dependence.
+// constraint row's threshold for dependence; with cross-covariances asked for, also what they
+// are computed from (CrossCovariance).
 struct KktSystem {
   std::vector<Triplet> entries;
   Eigen::VectorXd rhs;
@@ -116,22 +117,25 @@ void Add(std::vector<Triplet>* t, int i, int j, double v) {
   t->emplace_back(std::min(i, j), std::max(i, j), v);
 }
 
-// `room`: explicit zeros that make room in the factor for the cross-covariances asked for.
+// `room`: explicit zeros that make room in the factor for the cross-covariances asked for;
+// `for_pairs`: keep what CrossCovariance reads.
 void Assemble(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
               const Values& mean, const Eigen::VectorXd& prior_variance,
-              const std::vector<Triplet>& room, const Layout& layout, const Eigen::VectorXd& delta,
-              const SparseOptions& options, KktSystem* kkt) {
+              const std::vector<Triplet>& room, bool for_pairs, const Layout& layout,
+              const Eigen::VectorXd& delta, const SparseOptions& options, KktSystem* kkt) {
   const int size = layout.n + layout.m;
   kkt->entries.clear();
   kkt->rhs = Eigen::VectorXd::Zero(size);
   kkt->drop_below = Eigen::VectorXd::Constant(size, -1.0);
-  kkt->jacobian.resize(factors.size());
-  kkt->information.resize(blocks.size());
-  for (size_t b = 0; b < blocks.size(); ++b) {
-    kkt->information[b] =
-        prior_variance.segment(blocks[b].tangent_offset, TangentDim(blocks[b].kind))
-            .cwiseInverse()
-            .asDiagonal();
+  if (for_pairs) {
+    kkt->jacobian.resize(factors.size());
+    kkt->information.resize(blocks.size());
+    for (size_t b = 0; b < blocks.size(); ++b) {
+      kkt->information[b] =
+          prior_variance.segment(blocks[b].tangent_offset, TangentDim(blocks[b].kind))
+              .cwiseInverse()
+              .asDiagonal();
+    }
   }
   for (int i = 0; i < layout.n; ++i) {
     Add(&kkt->entries, layout.coordinate[i], layout.coordinate[i], 1 / prior_variance[i]);
@@ -155,7 +159,7 @@ void Assemble(const std::vector<Factor>& factors, const std::vector<Block>& bloc
     Eigen::VectorXd J_delta = -r;
     for (size_t c = 0; c < cols.size(); ++c) J_delta += J.col(c) * delta[cols[c]];
     if (factor.is_constraint()) {
-      kkt->jacobian[f] = J;
+      if (for_pairs) kkt->jacobian[f] = J;
       for (int row = 0; row < J.rows(); ++row) {
         const int p = layout.first_row[f] + row;
         kkt->rhs[p] = J_delta[row];
@@ -174,7 +178,9 @@ void Assemble(const std::vector<Factor>& factors, const std::vector<Block>& bloc
     const Eigen::VectorXd ew = whiten.matrixL().solve(J_delta);
     const Eigen::MatrixXd information = Jw.transpose() * Jw;
     const Eigen::VectorXd g = Jw.transpose() * ew;
-    if (factor.blocks.size() == 1) kkt->information[factor.blocks[0]] += information;
+    if (for_pairs && factor.blocks.size() == 1) {
+      kkt->information[factor.blocks[0]] += information;
+    }
     for (size_t c = 0; c < cols.size(); ++c) {
       kkt->rhs[layout.coordinate[cols[c]]] += g[c];
       for (size_t c2 = 0; c2 <= c; ++c2) {
@@ -333,7 +339,8 @@ SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<
   Eigen::VectorXd x(size);
   const std::vector<Triplet> room = RoomForPairs(pairs, factors, blocks, layout);
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
-    Assemble(factors, blocks, prior_mean, prior_variance, room, layout, delta, options, &kkt);
+    Assemble(factors, blocks, prior_mean, prior_variance, room, !pairs.empty(), layout, delta,
+             options, &kkt);
     upper.setFromTriplets(kkt.entries.begin(), kkt.entries.end());
     if (iteration == 0) ldlt.Analyze(upper);
     if (!kkt.rhs.allFinite() || !ldlt.Factorize(upper, kkt.drop_below)) {
@@ -355,7 +362,7 @@ SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<
       break;
     }
   }
-  summary.dependent_rows = ldlt.dropped();
+  if (summary.factorized) summary.dependent_rows = ldlt.dropped();
   summary.factor_nonzeros = ldlt.nonzeros();
 
   estimate->blocks = blocks;
