@@ -9,16 +9,17 @@
 // motion-capture rig would), then for every noise level simulates TRIALS configurations (seeds
 // 100, 101, ...: joint variables uniform over the middle 80 % of their limits, a random base
 // pose, the markers measured in 3D with that noise), and solves each with
-//   - fusion: constraint fusion (cfuse/interp/solve.h), every joint a constraint;
+//   - fusion: constraint fusion (cfuse/interp/solve.h), every joint a constraint; from
+//     SolveOptions::sparse_from_dim state dimensions on, solve's sparse path, whose covariance
+//     has no entries between joints: its NEES (marked ‡) is then each joint's alone, summed;
 //   - parametric: Lowe's estimator on root poses and joint variables (cfuse/interp/parametric.h);
 //   - components: every component from its own markers alone, joints read off the poses;
 //   - ceres: the parametric problem solved by Ceres, a peer (bench/ceres_robot.h; only where
 //     Ceres was found at build time; its rows have no covariance, so no NEES);
 //   - sparse: every marker and every constraint solved at once by the sparse solver
 //     (cfuse/kernel/sparse_solver.h) from solve's closed-form start, with the covariance of
-//     each component and of each joint's two components (what a joint's sigma needs); not yet
-//     behind `cfuse solve`: no refinement of the start, no active-set test on limits, and no
-//     NEES here (the sweep's NEES takes every pair of joints).
+//     each component and of each joint's two components (what a joint's sigma needs): the
+//     kernel alone, without solve's checks and fallbacks, and no NEES here.
 // It prints a Markdown row per model, noise level and method: the trials that converged, the
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
 // mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
@@ -40,6 +41,7 @@
 #ifdef CFUSE_HAVE_CERES
 #include "bench/ceres_robot.h"
 #endif
+#include "cfuse/constraints/evaluate.h"
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/importers/urdf.h"
 #include "cfuse/interp/joint_estimates.h"
@@ -68,7 +70,8 @@ struct SparseRobot {
 };
 SparseRobot SolveSparseRobot(const ConstraintGraph& g, const MeasurementSet& set) {
   const std::vector<ResolvedLabel> labels = ResolveLabels(g, set);
-  const Values start = ClosedFormStart(g, set, labels);
+  Values start = ClosedFormStart(g, set, labels);
+  MatchSlacks(g, &start);
   std::vector<Factor> factors;
   for (const ResolvedLabel& r : labels) {
     const MeasuredPoint& m = set.points[r.measurement];
@@ -154,6 +157,7 @@ struct Cell {
   int angles = 0, prismatics = 0, points = 0, dof = 0, on_limit = 0;
   std::vector<double> ms;
   std::vector<int> failed;  // trials that did not converge
+  bool marginal = false;    // NEES of each joint alone (no covariance between joints)
 };
 
 // Adds one estimate's errors against the truth (its covariance's NEES only `with_covariance`).
@@ -198,7 +202,14 @@ void Score(const ConstraintGraph& g, const Values& truth, const GaussianState& e
     ef[a] = e[free[a]];
     for (size_t b = 0; b < free.size(); ++b) P(a, b) = q.covariance(free[a], free[b]);
   }
-  if (!free.empty()) cell->nees += ef.dot(P.ldlt().solve(ef));
+  if (P.allFinite()) {
+    if (!free.empty()) cell->nees += ef.dot(P.ldlt().solve(ef));
+  } else {
+    // Solve's sparse path computes each joint's variance, not the pairs of joints: the NEES of
+    // each joint alone, summed (also 1 per joint when the variances are right).
+    for (int a = 0; a < ef.size(); ++a) cell->nees += ef[a] * ef[a] / P(a, a);
+    cell->marginal = true;
+  }
   cell->dof += static_cast<int>(free.size());
   for (size_t c = 0; c < g.components.size(); ++c) {
     if (!g.components[c].rigid) {
@@ -342,7 +353,8 @@ int Run(int argc, char** argv) {
             cell.prismatics
                 ? fmt::format("{:.3f}", 1000 * std::sqrt(cell.prismatic_sq / cell.prismatics))
                 : std::string("—"),
-            cell.dof ? fmt::format("{:.2f}", cell.nees / cell.dof) : std::string("—"),
+            cell.dof ? fmt::format("{:.2f}{}", cell.nees / cell.dof, cell.marginal ? " ‡" : "")
+                     : std::string("—"),
             rms(1e6 * cell.point_sq, cell.points), Median(cell.ms));
         if (verbose) {
           for (int t : cell.failed)

@@ -126,6 +126,9 @@ SolveAnswer SolveAndJudge(const ConstraintGraph& graph, const MeasurementSet& se
   SolveAnswer answer;
   answer.result = SolutionJson(graph, set, solution, MsSince(start));
   answer.result["status"]["method"] = method;
+  if (method != "parametric") {
+    answer.result["status"]["estimator"] = solution.sparse ? "sparse" : "filter";
+  }
   if (residual_variance) {
     answer.result["status"]["residual_variance"] =
         std::isfinite(*residual_variance) ? nlohmann::json(*residual_variance) : nlohmann::json();

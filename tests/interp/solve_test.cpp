@@ -4,6 +4,7 @@
 
 #include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
+#include <limits>
 #include <random>
 
 #include "cfuse/constraints/dof.h"
@@ -400,6 +401,71 @@ std::pair<double, int> TotalNees(const ConstraintGraph& g, int trials, bool all_
 std::pair<double, double> ChiSquare99(double k) {
   const double z = 2.5758, a = 2 / (9 * k);
   return {k * std::pow(1 - a - z * std::sqrt(a), 3), k * std::pow(1 - a + z * std::sqrt(a), 3)};
+}
+
+// The sparse path (SolveOptions::sparse_from_dim) on cabinets with both joints well inside
+// their limits: the filter's answer, within a fifth of a standard deviation (both stop once a
+// step is below a tenth of one); each component's covariance and each joint's variance as the
+// filter's; the covariance between blocks no joint joins not computed (NaN). On its limit the
+// door goes to the filter, which decides whether the limit holds (every entry then computed).
+TEST_CASE("solve: the sparse path gives the filter's answer and the variances results report",
+          "[interp]") {
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/cabinet.yaml"));
+  SolveOptions sparse, filter;
+  sparse.sparse_from_dim = 0;
+  filter.sparse_from_dim = std::numeric_limits<int>::max();
+  const int drawer = g.components[g.FindComponent("drawer")].block;
+  const int door = g.components[g.FindComponent("door")].block;
+  int used = 0;
+  for (int seed = 0; seed < 10; ++seed) {
+    SimulateOptions so;
+    so.seed = seed;
+    so.labels = true;
+    so.sample_joints = true;
+    const Simulation sim = Simulate(g, so);
+    const Solution a = Solve(g, sim.measurements, sparse);
+    const Solution b = Solve(g, sim.measurements, filter);
+    INFO("seed " << seed);
+    REQUIRE(a.accepted());
+    REQUIRE(b.accepted());
+    CHECK(b.state.covariance.allFinite());
+    const Eigen::VectorXd d = LocalCoordinates(g.blocks, b.state.mean, a.state.mean);
+    for (const Block& block : g.blocks) {
+      const int o = block.tangent_offset, dim = TangentDim(block.kind);
+      if (block.kind == BlockKind::kSlack) continue;
+      for (int i = o; i < o + dim; ++i) {
+        CHECK(std::abs(d[i]) <= 0.2 * std::sqrt(b.state.covariance(i, i)) + 1e-12);
+      }
+      const Eigen::MatrixXd pa = a.state.covariance.block(o, o, dim, dim);
+      const Eigen::MatrixXd pb = b.state.covariance.block(o, o, dim, dim);
+      CHECK((pa - pb).norm() <= 0.01 * pb.norm());
+    }
+    const JointEstimates qa = EstimateJoints(g, a.state), qb = EstimateJoints(g, b.state);
+    for (int k = 0; k < qa.values.size(); ++k) {
+      CHECK(std::abs(qa.covariance(k, k) - qb.covariance(k, k)) <= 0.01 * qb.covariance(k, k));
+    }
+    CHECK_FALSE(b.sparse);
+    CHECK(a.sparse == !a.state.covariance.allFinite());
+    if (!a.sparse) continue;  // the filter's: a slack on its boundary
+    ++used;
+    const Block& bd = g.blocks[drawer];
+    const Block& bo = g.blocks[door];
+    // The drawer and the door are joined by no joint (both hang on the carcass).
+    CHECK(std::isnan(a.state.covariance(bd.tangent_offset, bo.tangent_offset)));
+  }
+  CHECK(used >= 8);
+
+  // An elbow 1 degree beyond its lower limit: held on the limit, so the filter solved it.
+  const ConstraintGraph elbow = LoadModelFromString(kElbow, "elbow.yaml", ".");
+  std::mt19937 rng(1);
+  const Values truth = ElbowAt(elbow, -1 * M_PI / 180, RandomPose(rng, 1.0));
+  const MeasurementSet set = Measure3d(elbow, truth, rng, 0.002);
+  const Solution on = Solve(elbow, set, sparse), reference = Solve(elbow, set, filter);
+  REQUIRE(on.accepted());
+  CHECK_FALSE(on.sparse);
+  CHECK(on.state.covariance.allFinite());
+  CHECK(LocalCoordinates(elbow.blocks, reference.state.mean, on.state.mean)
+            .lpNorm<Eigen::Infinity>() == 0);
 }
 
 TEST_CASE("solve: NEES over 200 simulated lamps and 200 hinged boxes lies in its 99% interval",
