@@ -266,10 +266,12 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
       !(s.max_constraint_residual <= sequence.constraint_tolerance)) {
     return false;
   }
+  // On its boundary as FuseSequence judges it: λ² within a hundred constraint tolerances.
+  constexpr double kBoundary = 100;
   for (const Constraint& c : graph.constraints) {
     if (c.slack_block < 0) continue;
     const double lambda = estimate.mean.slacks[graph.blocks[c.slack_block].index];
-    if (lambda * lambda <= 100 * sequence.constraint_tolerance) return false;
+    if (lambda * lambda <= kBoundary * sequence.constraint_tolerance) return false;
   }
   if (AnalyseFit(factors, graph.blocks, estimate.mean, solution->extent, false).fit.p_value <
       options.min_p_value) {

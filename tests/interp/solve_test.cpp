@@ -406,8 +406,8 @@ std::pair<double, double> ChiSquare99(double k) {
 // The sparse path (SolveOptions::sparse_from_dim) on cabinets with both joints well inside
 // their limits: the filter's answer, within a fifth of a standard deviation (both stop once a
 // step is below a tenth of one); each component's covariance and each joint's variance as the
-// filter's; the covariance between blocks no joint joins not computed (NaN). On its limit the
-// door goes to the filter, which decides whether the limit holds (every entry then computed).
+// filter's; the covariance between blocks no joint joins not computed (NaN). An elbow held on
+// its limit goes to the filter, which decides whether the limit holds (every entry computed).
 TEST_CASE("solve: the sparse path gives the filter's answer and the variances results report",
           "[interp]") {
   const ConstraintGraph g = LoadModel(testing::SourcePath("examples/cabinet.yaml"));
