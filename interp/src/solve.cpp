@@ -239,22 +239,40 @@ std::vector<std::string> UndeterminedNames(const ConstraintGraph& graph, const S
   return out;
 }
 
+// Each block's own covariance and each pair's in `pairs` from `estimate` into state's
+// covariance, NaN elsewhere.
+void StoreReported(const ConstraintGraph& graph, const SparseEstimate& estimate,
+                   const std::vector<std::pair<int, int>>& pairs, GaussianState* state) {
+  state->covariance.setConstant(NAN);
+  auto put = [&](int a, int b) {
+    const Block &ba = graph.blocks[a], &bb = graph.blocks[b];
+    const Eigen::MatrixXd c = estimate.Covariance(a, b);
+    state->covariance.block(ba.tangent_offset, bb.tangent_offset, c.rows(), c.cols()) = c;
+    state->covariance.block(bb.tangent_offset, ba.tangent_offset, c.cols(), c.rows()) =
+        c.transpose();
+  };
+  for (size_t b = 0; b < graph.blocks.size(); ++b) put(static_cast<int>(b), static_cast<int>(b));
+  for (const auto& [a, b] : pairs) put(a, b);
+}
+
 // The sparse solver's answer (sparse_solver.h) as a Solution's state and summary, when it is
 // one the filter would give: converged, every constraint within tolerance, no inequality on
 // its boundary (the filter's active-set test decides those), and a fit the solution accepts.
-// False otherwise, the filter then solving from the start as before. The covariance holds what
-// results report, each block's own and each joint's pair of components (the joint's variance):
-// the rest would cost n solves with the factor (50 ms for 850 dimensions), more than the whole
-// solve, and is NaN, not computed, rather than a number that is not the covariance.
+// False otherwise, the filter then solving from the start as before. A large model's
+// covariance holds what results report, each block's own and each joint's pair of components
+// (the joint's variance): the rest would cost n solves with the factor (50 ms for 850
+// dimensions), more than the whole solve, and is NaN, not computed, rather than a number that
+// is not the covariance. A small model's is whole.
 bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                       const Values& initial, const PriorScale& scale,
                       const SequenceOptions& sequence, const SolveOptions& options,
                       Solution* solution) {
   SparseOptions sparse;
   sparse.constraint_tolerance = sequence.constraint_tolerance;
+  sparse.full_covariance = graph.tangent_dim() < options.full_covariance_below;
   std::vector<std::pair<int, int>> pairs;
   for (const Joint& j : graph.joints) {
-    if (j.parent >= 0 && j.child >= 0) {
+    if (!sparse.full_covariance && j.parent >= 0 && j.child >= 0) {
       pairs.emplace_back(graph.components[j.parent].block, graph.components[j.child].block);
     }
   }
@@ -279,16 +297,11 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
   }
   GaussianState& state = solution->state;
   state.mean = std::move(estimate.mean);
-  state.covariance.setConstant(NAN);
-  auto put = [&](int a, int b) {
-    const Block &ba = graph.blocks[a], &bb = graph.blocks[b];
-    const Eigen::MatrixXd c = estimate.Covariance(a, b);
-    state.covariance.block(ba.tangent_offset, bb.tangent_offset, c.rows(), c.cols()) = c;
-    state.covariance.block(bb.tangent_offset, ba.tangent_offset, c.cols(), c.rows()) =
-        c.transpose();
-  };
-  for (size_t b = 0; b < graph.blocks.size(); ++b) put(static_cast<int>(b), static_cast<int>(b));
-  for (const auto& [a, b] : pairs) put(a, b);
+  if (sparse.full_covariance) {
+    state.covariance = estimate.full_covariance();
+  } else {
+    StoreReported(graph, estimate, pairs, &state);
+  }
   solution->summary = SequenceSummary{};
   solution->summary.passes = s.iterations;
   solution->summary.converged = true;

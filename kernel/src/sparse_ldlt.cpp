@@ -102,6 +102,23 @@ void SparseLdlt::Solve(Eigen::VectorXd* x) const {
   }
 }
 
+Eigen::MatrixXd SparseLdlt::InverseLeading(int count) const {
+  const int n = size();
+  CFUSE_CHECK(count >= 0 && count <= n);
+  // K⁺ E, E the first `count` columns of the identity, by rows: each step of the substitutions
+  // moves a whole row, contiguous in row-major storage.
+  Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> v =
+      Eigen::MatrixXd::Identity(n, count);
+  for (int j = 0; j < n; ++j) {
+    for (long p = start_[j]; p < start_[j + 1]; ++p) v.row(row_[p]) -= l_[p] * v.row(j);
+  }
+  v.array().colwise() *= d_inverse_.array();
+  for (int j = n - 1; j >= 0; --j) {
+    for (long p = start_[j]; p < start_[j + 1]; ++p) v.row(j) -= l_[p] * v.row(row_[p]);
+  }
+  return v.topRows(count);
+}
+
 long SparseLdlt::Find(int i, int j) const {
   const auto first = row_.begin() + start_[j], last = row_.begin() + start_[j + 1];
   const auto it = std::lower_bound(first, last, i);

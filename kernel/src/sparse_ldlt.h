@@ -37,6 +37,10 @@ class SparseLdlt {
   // K⁻¹(i, j) for i == j or (i, j) in the pattern of L (either order). InternalError if not.
   double Inverse(int i, int j) const;
 
+  // The leading count x count block of K⁺ whole (the dropped rows' entries 0): count solves
+  // with the factor at once, O(count · entries of L).
+  Eigen::MatrixXd InverseLeading(int count) const;
+
   int size() const { return static_cast<int>(d_.size()); }
   // Pivots dropped by the factorisation (meaningful after one that succeeded).
   int dropped() const;

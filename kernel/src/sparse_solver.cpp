@@ -5,6 +5,7 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
+#include <numeric>
 
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/evaluate.h"
@@ -19,6 +20,7 @@ using Triplet = Eigen::Triplet<double>;
 // Nodes in approximate-minimum-degree order, from the pairs of nodes that share a row.
 std::vector<int> MinimumDegreeOrder(int nodes, const std::vector<std::pair<int, int>>& edges) {
   std::vector<int> order(nodes);
+  std::iota(order.begin(), order.end(), 0);
   if (nodes == 0) return order;
   std::vector<Triplet> t;
   t.reserve(nodes + 2 * edges.size());
@@ -49,6 +51,9 @@ struct Layout {
   std::vector<std::vector<int>> cols;  // factor -> state coordinate of each Jacobian column
   std::vector<std::vector<int>> constraints_of_block;  // block -> constraint factors on it
   bool measurements_within_blocks = true;              // no measurement joins two blocks
+  // measurement factor -> Lw⁻¹, R = Lw Lwᵀ its noise (NaN where R is not positive definite,
+  // which then fails the factorisation); computed once, the noise does not change.
+  std::vector<Eigen::MatrixXd> whiten;
 };
 
 Layout MakeLayout(const std::vector<Factor>& factors, const std::vector<Block>& blocks, int n) {
@@ -74,6 +79,13 @@ Layout MakeLayout(const std::vector<Factor>& factors, const std::vector<Block>& 
       constraints.push_back(static_cast<int>(f));
       layout.m += factors[f].residual->dimension();
     } else {
+      const Eigen::LLT<Eigen::MatrixXd> llt(factors[f].noise);
+      const Eigen::Index rows = factors[f].noise.rows();
+      layout.whiten.resize(factors.size());
+      layout.whiten[f] =
+          llt.info() == Eigen::Success
+              ? Eigen::MatrixXd(llt.matrixL().solve(Eigen::MatrixXd::Identity(rows, rows)))
+              : Eigen::MatrixXd::Constant(rows, rows, NAN);
       for (size_t s = 1; s < factors[f].blocks.size(); ++s) {
         block_edges.emplace_back(factors[f].blocks[0], factors[f].blocks[s]);
         layout.measurements_within_blocks = false;
@@ -106,7 +118,8 @@ Layout MakeLayout(const std::vector<Factor>& factors, const std::vector<Block>& 
 // constraint row's threshold for dependence; with cross-covariances asked for, also what they
 // are computed from (CrossCovariance).
 struct KktSystem {
-  std::vector<Triplet> entries;
+  std::vector<Triplet> entries;  // in the same order at every linearisation
+  std::vector<int> slot;         // entry -> its place among K's stored values
   Eigen::VectorXd rhs;
   Eigen::VectorXd drop_below;
   std::vector<Eigen::MatrixXd> information;  // per block: its diagonal block of Λ
@@ -115,6 +128,23 @@ struct KktSystem {
 
 void Add(std::vector<Triplet>* t, int i, int j, double v) {
   t->emplace_back(std::min(i, j), std::max(i, j), v);
+}
+
+// Where each entry landed among the stored values of `upper` (set from `entries`, duplicates
+// summed, explicit zeros kept).
+std::vector<int> Slots(const Eigen::SparseMatrix<double>& upper,
+                       const std::vector<Triplet>& entries) {
+  std::vector<int> slot(entries.size());
+  const int* inner = upper.innerIndexPtr();
+  const int* outer = upper.outerIndexPtr();
+  for (size_t e = 0; e < entries.size(); ++e) {
+    const int* first = inner + outer[entries[e].col()];
+    const int* last = inner + outer[entries[e].col() + 1];
+    const int* it = std::lower_bound(first, last, entries[e].row());
+    CFUSE_CHECK(it != last && *it == entries[e].row());
+    slot[e] = static_cast<int>(it - inner);
+  }
+  return slot;
 }
 
 // `room`: explicit zeros that make room in the factor for the cross-covariances asked for;
@@ -150,13 +180,13 @@ void Assemble(const std::vector<Factor>& factors, const std::vector<Block>& bloc
     }
   }
   kkt->entries.insert(kkt->entries.end(), room.begin(), room.end());
-  Eigen::VectorXd r;
-  Eigen::MatrixXd J;
+  Eigen::VectorXd r, J_delta, ew, g;
+  Eigen::MatrixXd J, Jw, information;
   for (size_t f = 0; f < factors.size(); ++f) {
     const Factor& factor = factors[f];
     EvaluateResidual(*factor.residual, blocks, factor.blocks, mean, &r, &J, &delta);
     const std::vector<int>& cols = layout.cols[f];
-    Eigen::VectorXd J_delta = -r;
+    J_delta = -r;
     for (size_t c = 0; c < cols.size(); ++c) J_delta += J.col(c) * delta[cols[c]];
     if (factor.is_constraint()) {
       if (for_pairs) kkt->jacobian[f] = J;
@@ -173,11 +203,11 @@ void Assemble(const std::vector<Factor>& factors, const std::vector<Block>& bloc
       continue;
     }
     // Whitened: Jᵀ R⁻¹ J = Jwᵀ Jw and Jᵀ R⁻¹ (J δ - r) = Jwᵀ (Lw⁻¹ (J δ - r)), R = Lw Lwᵀ.
-    const Eigen::LLT<Eigen::MatrixXd> whiten(factor.noise);
-    const Eigen::MatrixXd Jw = whiten.matrixL().solve(J);
-    const Eigen::VectorXd ew = whiten.matrixL().solve(J_delta);
-    const Eigen::MatrixXd information = Jw.transpose() * Jw;
-    const Eigen::VectorXd g = Jw.transpose() * ew;
+    const Eigen::MatrixXd& whiten = layout.whiten[f];
+    Jw.noalias() = whiten * J;
+    ew.noalias() = whiten * J_delta;
+    information.noalias() = Jw.transpose() * Jw;
+    g.noalias() = Jw.transpose() * ew;
     if (for_pairs && factor.blocks.size() == 1) {
       kkt->information[factor.blocks[0]] += information;
     }
@@ -300,6 +330,12 @@ bool Settled(const std::vector<Factor>& factors, const std::vector<Block>& block
 }  // namespace
 
 Eigen::MatrixXd SparseEstimate::Covariance(int a, int b) const {
+  if (full_.size() > 0) {
+    CFUSE_CHECK(a >= 0 && b >= 0 && a < static_cast<int>(blocks.size()) &&
+                b < static_cast<int>(blocks.size()));
+    return full_.block(blocks[a].tangent_offset, blocks[b].tangent_offset,
+                       TangentDim(blocks[a].kind), TangentDim(blocks[b].kind));
+  }
   if (a == b) {
     CFUSE_CHECK(a >= 0 && a < static_cast<int>(own_.size()));
     return own_[a];
@@ -310,7 +346,7 @@ Eigen::MatrixXd SparseEstimate::Covariance(int a, int b) const {
 }
 
 bool SparseEstimate::HasCovariance(int a, int b) const {
-  return a == b || pairs_.count({std::min(a, b), std::max(a, b)}) > 0;
+  return a == b || full_.size() > 0 || pairs_.count({std::min(a, b), std::max(a, b)}) > 0;
 }
 
 SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
@@ -341,8 +377,16 @@ SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     Assemble(factors, blocks, prior_mean, prior_variance, room, !pairs.empty(), layout, delta,
              options, &kkt);
-    upper.setFromTriplets(kkt.entries.begin(), kkt.entries.end());
-    if (iteration == 0) ldlt.Analyze(upper);
+    if (iteration == 0) {
+      upper.setFromTriplets(kkt.entries.begin(), kkt.entries.end());
+      ldlt.Analyze(upper);
+      kkt.slot = Slots(upper, kkt.entries);
+    } else {
+      // The same entries as at the first linearisation: only their values change.
+      double* values = upper.valuePtr();
+      std::fill(values, values + upper.nonZeros(), 0.0);
+      for (size_t e = 0; e < kkt.entries.size(); ++e) values[kkt.slot[e]] += kkt.entries[e].value();
+    }
     if (!kkt.rhs.allFinite() || !ldlt.Factorize(upper, kkt.drop_below)) {
       summary.factorized = false;
       break;
@@ -370,7 +414,22 @@ SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<
   Retract(blocks, delta, &estimate->mean);
   estimate->own_.assign(blocks.size(), Eigen::MatrixXd());
   estimate->pairs_.clear();
-  if (summary.factorized) {
+  estimate->full_.resize(0, 0);
+  if (summary.factorized && options.full_covariance) {
+    const Eigen::MatrixXd by_position = ldlt.InverseLeading(n);
+    Eigen::MatrixXd& P = estimate->full_;
+    P.resize(n, n);
+    for (int j = 0; j < n; ++j) {
+      for (int i = 0; i < n; ++i) P(i, j) = by_position(layout.coordinate[i], layout.coordinate[j]);
+    }
+    // To the chart at the solution, G = Jr(δθ) on each rotation: P <- G P Gᵀ, G block-diagonal.
+    for (const Block& b : blocks) {
+      if (b.kind != BlockKind::kPose) continue;
+      const Eigen::Matrix3d G = RightJacobianSO3(delta.segment<3>(b.tangent_offset));
+      P.middleRows<3>(b.tangent_offset) = G * P.middleRows<3>(b.tangent_offset);
+      P.middleCols<3>(b.tangent_offset) = P.middleCols<3>(b.tangent_offset) * G.transpose();
+    }
+  } else if (summary.factorized) {
     if (!ldlt.has_selected_inverse()) ldlt.ComputeSelectedInverse();
     // The chart at the solution: G = Jr(δθ) on each rotation, as SolveBatch and the filter.
     auto chart = [&](int b) {

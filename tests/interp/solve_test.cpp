@@ -405,14 +405,15 @@ std::pair<double, double> ChiSquare99(double k) {
 
 // The sparse path (SolveOptions::sparse_from_dim) on cabinets with both joints well inside
 // their limits: the filter's answer, within a fifth of a standard deviation (both stop once a
-// step is below a tenth of one); each component's covariance and each joint's variance as the
-// filter's; the covariance between blocks no joint joins not computed (NaN). An elbow held on
+// step is below a tenth of one); its covariance whole, every entry as the filter's. From
+// SolveOptions::full_covariance_below on, each component's covariance and each joint's variance
+// as before, the covariance between blocks no joint joins not computed (NaN). An elbow held on
 // its limit goes to the filter, which decides whether the limit holds (every entry computed).
 TEST_CASE("solve: the sparse path gives the filter's answer and the variances results report",
           "[interp]") {
   const ConstraintGraph g = LoadModel(testing::SourcePath("examples/cabinet.yaml"));
-  SolveOptions sparse, filter;
-  sparse.sparse_from_dim = 0;
+  SolveOptions sparse, reported, filter;
+  reported.full_covariance_below = 0;
   filter.sparse_from_dim = std::numeric_limits<int>::max();
   const int drawer = g.components[g.FindComponent("drawer")].block;
   const int door = g.components[g.FindComponent("door")].block;
@@ -424,34 +425,53 @@ TEST_CASE("solve: the sparse path gives the filter's answer and the variances re
     so.sample_joints = true;
     const Simulation sim = Simulate(g, so);
     const Solution a = Solve(g, sim.measurements, sparse);
+    const Solution c = Solve(g, sim.measurements, reported);
     const Solution b = Solve(g, sim.measurements, filter);
     INFO("seed " << seed);
     REQUIRE(a.accepted());
     REQUIRE(b.accepted());
+    REQUIRE(c.accepted());
+    CHECK(a.state.covariance.allFinite());
     CHECK(b.state.covariance.allFinite());
     const Eigen::VectorXd d = LocalCoordinates(g.blocks, b.state.mean, a.state.mean);
+    std::vector<int> coordinates;  // every one but the slacks'
     for (const Block& block : g.blocks) {
       const int o = block.tangent_offset, dim = TangentDim(block.kind);
       if (block.kind == BlockKind::kSlack) continue;
       for (int i = o; i < o + dim; ++i) {
         CHECK(std::abs(d[i]) <= 0.2 * std::sqrt(b.state.covariance(i, i)) + 1e-12);
+        coordinates.push_back(i);
       }
-      const Eigen::MatrixXd pa = a.state.covariance.block(o, o, dim, dim);
+      const Eigen::MatrixXd pc = c.state.covariance.block(o, o, dim, dim);
       const Eigen::MatrixXd pb = b.state.covariance.block(o, o, dim, dim);
-      CHECK((pa - pb).norm() <= 0.01 * pb.norm());
+      CHECK((pc - pb).norm() <= 0.01 * pb.norm());
     }
-    const JointEstimates qa = EstimateJoints(g, a.state), qb = EstimateJoints(g, b.state);
+    // Every entry, as a share of the two standard deviations it relates.
+    double worst = 0;
+    for (int i : coordinates) {
+      for (int j : coordinates) {
+        const double scale = std::sqrt(b.state.covariance(i, i) * b.state.covariance(j, j));
+        worst =
+            std::max(worst, std::abs(a.state.covariance(i, j) - b.state.covariance(i, j)) / scale);
+      }
+    }
+    CHECK(worst <= 0.01);
+    const JointEstimates qa = EstimateJoints(g, a.state), qb = EstimateJoints(g, b.state),
+                         qc = EstimateJoints(g, c.state);
     for (int k = 0; k < qa.values.size(); ++k) {
       CHECK(std::abs(qa.covariance(k, k) - qb.covariance(k, k)) <= 0.01 * qb.covariance(k, k));
+      CHECK(std::abs(qc.covariance(k, k) - qb.covariance(k, k)) <= 0.01 * qb.covariance(k, k));
     }
     CHECK_FALSE(b.sparse);
-    CHECK(a.sparse == !a.state.covariance.allFinite());
+    CHECK(a.sparse == c.sparse);
+    CHECK(c.sparse == !c.state.covariance.allFinite());
     if (!a.sparse) continue;  // the filter's: a slack on its boundary
     ++used;
     const Block& bd = g.blocks[drawer];
     const Block& bo = g.blocks[door];
     // The drawer and the door are joined by no joint (both hang on the carcass).
-    CHECK(std::isnan(a.state.covariance(bd.tangent_offset, bo.tangent_offset)));
+    CHECK(std::isnan(c.state.covariance(bd.tangent_offset, bo.tangent_offset)));
+    CHECK(std::isfinite(a.state.covariance(bd.tangent_offset, bo.tangent_offset)));
   }
   CHECK(used >= 8);
 

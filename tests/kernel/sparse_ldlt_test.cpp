@@ -80,6 +80,9 @@ TEST_CASE("sparse ldlt: solves and the selected inverse match the dense inverse"
         CHECK(ldlt.Inverse(j, i) == ldlt.Inverse(i, j));
       }
     }
+    // The state's block whole, and every column when asked for all.
+    CHECK((ldlt.InverseLeading(n) - inverse.topLeftCorner(n, n)).cwiseAbs().maxCoeff() < 1e-9);
+    CHECK((ldlt.InverseLeading(n + m) - inverse).cwiseAbs().maxCoeff() < 1e-9);
   }
 }
 
@@ -121,6 +124,10 @@ TEST_CASE("sparse ldlt: a constraint row that repeats others is dropped as if ab
     }
   }
   CHECK(ldlt.Inverse(n + 2, n + 2) == 0);
+  const Eigen::MatrixXd leading = ldlt.InverseLeading(n + 3);
+  CHECK((leading.topLeftCorner(n + m, n + m) - inverse).cwiseAbs().maxCoeff() < 1e-9);
+  CHECK(leading.row(n + 2).cwiseAbs().maxCoeff() == 0);
+  CHECK(leading.col(n + 2).cwiseAbs().maxCoeff() == 0);
 }
 
 TEST_CASE("sparse ldlt: a state pivot that is not positive fails the factorisation", "[kernel]") {

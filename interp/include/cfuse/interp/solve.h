@@ -19,8 +19,8 @@
 //     small), fused by FuseSequence (cfuse/kernel/estimator.h) until every
 //     constraint holds to 1e-8 x the model's extent. (Gauss-Newton passes reach about 1e-9 x
 //     the extent before roundoff dominates when points are occluded: the vague prior then
-//     leaves the covariance ill-conditioned.) A large model (SolveOptions::sparse_from_dim) is
-//     solved first by the sparse solver, every factor at once, and the filter runs only when
+//     leaves the covariance ill-conditioned.) The model is solved first by the sparse solver
+//     (SolveOptions::sparse_from_dim), every factor at once, and the filter runs only when
 //     that answer is not one it would give (an inequality on its boundary, no convergence).
 #pragma once
 
@@ -68,11 +68,14 @@ struct SolveOptions {
   // sparse solver (cfuse/kernel/sparse_solver.h), whose cost follows the model's graph where
   // the filter's grows with the square of the state per update: its answer is kept when it
   // converged with no inequality on its boundary and a fit that passes, and the filter solves
-  // as before otherwise. Its covariance then holds each component's own block and each
-  // joint's pair of components (what results report: poses' and joints' sigmas); the entries
-  // between other blocks are NaN, not computed. INT_MAX: the filter always, every entry.
-  // (Measured where the two cross: docs/benchmarks.md, "Scale".)
-  int sparse_from_dim = 200;
+  // as before otherwise. INT_MAX: the filter always.
+  int sparse_from_dim = 0;
+  // Below this many dimensions the sparse solver's covariance is computed whole (a solve with
+  // its factor per dimension). From it on, only what results report: each component's own
+  // block and each joint's pair of components (poses' and joints' sigmas); the entries between
+  // other blocks are NaN, not computed, since they would cost more than the solve itself.
+  // (Measured: docs/benchmarks.md, "Scale".)
+  int full_covariance_below = 200;
 };
 
 // A labelled measurement resolved to its model point.
@@ -109,8 +112,9 @@ struct Solution {
     Fit fit;
   };
   std::vector<Alternative> alternatives;
-  // Solved by the sparse solver (SolveOptions::sparse_from_dim): the covariance then holds each
-  // component's block and each joint's pair of components, NaN elsewhere.
+  // Solved by the sparse solver (SolveOptions::sparse_from_dim). From
+  // SolveOptions::full_covariance_below dimensions on, the covariance then holds each
+  // component's block and each joint's pair of components only, NaN elsewhere.
   bool sparse = false;
 
   // Every constraint holds, nothing was contradictory or not finite, and the data fit.

@@ -47,6 +47,9 @@ struct SparseOptions {
   // A constraint row whose pivot is at most this fraction of its variance under the prior is
   // a combination of others.
   double dependence_tolerance = 1e-12;
+  // The covariance of every pair of blocks, by one solve with the factor per state coordinate
+  // (O(n · entries of the factor)): for small states, where that costs less than the solve.
+  bool full_covariance = false;
 };
 
 struct SparseSummary {
@@ -67,10 +70,14 @@ class SparseEstimate {
   Values mean;
 
   // Cov(block a, block b) (rows a's tangent, columns b's), in the chart at `mean`. Available
-  // for a == b and for the pairs given to SolveSparse (either order); InternalError otherwise.
-  // Empty after a factorisation that failed (SparseSummary::factorized).
+  // for a == b and for the pairs given to SolveSparse (either order), or for every pair with
+  // SparseOptions::full_covariance; InternalError otherwise. Empty after a factorisation that
+  // failed (SparseSummary::factorized).
   Eigen::MatrixXd Covariance(int a, int b) const;
   bool HasCovariance(int a, int b) const;
+  // With SparseOptions::full_covariance: the whole covariance (laid out by
+  // Block::tangent_offset), in the chart at `mean`; empty otherwise.
+  const Eigen::MatrixXd& full_covariance() const { return full_; }
 
  private:
   friend SparseSummary SolveSparse(const std::vector<Factor>&, const std::vector<Block>&,
@@ -79,6 +86,7 @@ class SparseEstimate {
                                    const SparseOptions&, const Values*);
   std::vector<Eigen::MatrixXd> own_;                      // per block
   std::map<std::pair<int, int>, Eigen::MatrixXd> pairs_;  // (a, b), a < b
+  Eigen::MatrixXd full_;
 };
 
 // Solves from the prior N(prior_mean, diag(prior_variance)) over `blocks` (the variances laid
