@@ -106,17 +106,34 @@ Eigen::MatrixXd SparseLdlt::InverseLeading(int count) const {
   const int n = size();
   CFUSE_CHECK(count >= 0 && count <= n);
   // K⁺ E, E the first `count` columns of the identity, by rows: each step of the substitutions
-  // moves a whole row, contiguous in row-major storage.
+  // moves a row, contiguous in row-major storage. Forward, each row is nonzero only between the
+  // columns [lo, hi] it has gathered (a state coordinate's within its block, where K's state
+  // part is block-diagonal); backward, the rows above `count` are needed only up to the
+  // diagonal, the rest is the transpose.
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> v =
       Eigen::MatrixXd::Identity(n, count);
+  std::vector<int> lo(n, count), hi(n, -1);
+  for (int r = 0; r < count; ++r) lo[r] = hi[r] = r;
   for (int j = 0; j < n; ++j) {
-    for (long p = start_[j]; p < start_[j + 1]; ++p) v.row(row_[p]) -= l_[p] * v.row(j);
+    if (lo[j] > hi[j]) continue;
+    const int width = hi[j] - lo[j] + 1;
+    for (long p = start_[j]; p < start_[j + 1]; ++p) {
+      const int r = row_[p];
+      lo[r] = std::min(lo[r], lo[j]);
+      hi[r] = std::max(hi[r], hi[j]);
+      v.row(r).segment(lo[j], width) -= l_[p] * v.row(j).segment(lo[j], width);
+    }
   }
   v.array().colwise() *= d_inverse_.array();
   for (int j = n - 1; j >= 0; --j) {
-    for (long p = start_[j]; p < start_[j + 1]; ++p) v.row(j) -= l_[p] * v.row(row_[p]);
+    const int width = j < count ? j + 1 : count;
+    for (long p = start_[j]; p < start_[j + 1]; ++p) {
+      v.row(j).head(width) -= l_[p] * v.row(row_[p]).head(width);
+    }
   }
-  return v.topRows(count);
+  Eigen::MatrixXd out = v.topRows(count);
+  out.triangularView<Eigen::StrictlyUpper>() = out.transpose();
+  return out;
 }
 
 long SparseLdlt::Find(int i, int j) const {

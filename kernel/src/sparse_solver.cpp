@@ -275,29 +275,31 @@ Eigen::MatrixXd CrossCovariance(int a, int b, const std::vector<Block>& blocks,
     }
     return P;
   }
-  // The rows of A on a block: (position, the row's columns on the block).
-  auto rows = [&](int block, int offset, int dim) {
-    std::vector<std::pair<int, Eigen::RowVectorXd>> out;
+  // The rows of A on a block: their positions, and their columns on the block.
+  auto rows = [&](int block, int offset, int dim, std::vector<int>* positions) {
+    int count = 0;
+    for (int f : layout.constraints_of_block[block]) count += kkt.jacobian[f].rows();
+    Eigen::MatrixXd A = Eigen::MatrixXd::Zero(count, dim);
+    int k = 0;
     for (int f : layout.constraints_of_block[block]) {
       const Eigen::MatrixXd& J = kkt.jacobian[f];
       const std::vector<int>& cols = layout.cols[f];
-      for (int i = 0; i < J.rows(); ++i) {
-        Eigen::RowVectorXd row = Eigen::RowVectorXd::Zero(dim);
+      for (int i = 0; i < J.rows(); ++i, ++k) {
         for (size_t c = 0; c < cols.size(); ++c) {
-          if (cols[c] >= offset && cols[c] < offset + dim) row[cols[c] - offset] += J(i, c);
+          if (cols[c] >= offset && cols[c] < offset + dim) A(k, cols[c] - offset) += J(i, c);
         }
-        out.emplace_back(layout.first_row[f] + i, std::move(row));
+        positions->push_back(layout.first_row[f] + i);
       }
     }
-    return out;
+    return A;
   };
-  const auto rows_a = rows(a, oa, da), rows_b = rows(b, ob, db);
-  P.setZero();
-  for (const auto& [r, A_ra] : rows_a) {
-    for (const auto& [s, A_sb] : rows_b) {
-      P += A_ra.transpose() * ldlt.Inverse(r, s) * A_sb;
-    }
+  std::vector<int> ra, rb;
+  const Eigen::MatrixXd A_a = rows(a, oa, da, &ra), A_b = rows(b, ob, db, &rb);
+  Eigen::MatrixXd Z(ra.size(), rb.size());
+  for (size_t i = 0; i < ra.size(); ++i) {
+    for (size_t j = 0; j < rb.size(); ++j) Z(i, j) = ldlt.Inverse(ra[i], rb[j]);
   }
+  P.noalias() = A_a.transpose() * Z * A_b;
   const Eigen::LLT<Eigen::MatrixXd> La(kkt.information[a]), Lb(kkt.information[b]);
   return La.solve(Lb.solve(P.transpose()).transpose());
 }
