@@ -1,7 +1,8 @@
-// Closed-form poses: exact on noise-free data at poses all over SO(3), and refusing what they
-// cannot solve.
+// Closed-form poses: exact on noise-free data at poses all over SO(3), the least-squares pose
+// with noise, and refusing what they cannot solve.
 #include "cfuse/interp/closed_form_pose.h"
 
+#include <Eigen/Geometry>
 #include <catch2/catch.hpp>
 #include <random>
 
@@ -42,6 +43,23 @@ TEST_CASE("closed form: absolute orientation recovers poses all over SO(3)", "[i
     REQUIRE(AbsoluteOrientation(from, to, &found));
     CHECK(found.rotation.angularDistance(truth.rotation) < 1e-9);
     CHECK((found.translation - truth.translation).norm() < 1e-9);
+  }
+  // With noise: the least-squares pose, Eigen::umeyama's (without scale).
+  std::normal_distribution<double> noise(0, 0.01);
+  for (int trial = 0; trial < 100; ++trial) {
+    const Rigid3d truth(RandomRotation(rng), Eigen::Vector3d(0.3, -0.2, 1.5));
+    std::vector<Eigen::Vector3d> to;
+    Eigen::Matrix3Xd a(3, from.size()), b(3, from.size());
+    for (size_t i = 0; i < from.size(); ++i) {
+      to.push_back(truth * from[i] + Eigen::Vector3d(noise(rng), noise(rng), noise(rng)));
+      a.col(i) = from[i];
+      b.col(i) = to.back();
+    }
+    const Eigen::Matrix4d reference = Eigen::umeyama(a, b, false);
+    Rigid3d found;
+    REQUIRE(AbsoluteOrientation(from, to, &found));
+    CHECK((found.rotation.toRotationMatrix() - reference.topLeftCorner<3, 3>()).norm() < 1e-12);
+    CHECK((found.translation - reference.topRightCorner<3, 1>()).norm() < 1e-12);
   }
   Rigid3d untouched;
   CHECK_FALSE(AbsoluteOrientation({from[0], from[1]}, {from[0], from[1]}, &untouched));

@@ -1,7 +1,7 @@
 // Closed-form poses: the starts that keep the linearising filter away from wrong basins, so
 // that the result does not depend on how the object happens to be oriented.
 //
-//  - AbsoluteOrientation: 3D points, Eigen::umeyama without scale (Umeyama 1991).
+//  - AbsoluteOrientation: 3D points, Umeyama's (1991) least squares without scale.
 //  - OrthographicPose: image points under an orthographic camera (u = s x + cx, v = s y + cy).
 //    Depth is invisible to such a camera, so the translation along the optical axis is not
 //    measured: the caller says at which depth to put the points' centroid. Non-coplanar points
