@@ -5,7 +5,6 @@
 #include <Eigen/SparseCore>
 #include <algorithm>
 #include <cmath>
-#include <numeric>
 
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/evaluate.h"
@@ -20,7 +19,6 @@ using Triplet = Eigen::Triplet<double>;
 // Nodes in approximate-minimum-degree order, from the pairs of nodes that share a row.
 std::vector<int> MinimumDegreeOrder(int nodes, const std::vector<std::pair<int, int>>& edges) {
   std::vector<int> order(nodes);
-  std::iota(order.begin(), order.end(), 0);
   if (nodes == 0) return order;
   std::vector<Triplet> t;
   t.reserve(nodes + 2 * edges.size());
@@ -329,6 +327,17 @@ bool Settled(const std::vector<Factor>& factors, const std::vector<Block>& block
   return true;
 }
 
+// The chart at the solution for a block, as SolveBatch and the filter use: G = Jr(δθ) on a
+// pose's rotation, the identity elsewhere.
+Eigen::MatrixXd ChartAtSolution(const Block& b, const Eigen::VectorXd& delta) {
+  const int dim = TangentDim(b.kind);
+  Eigen::MatrixXd G = Eigen::MatrixXd::Identity(dim, dim);
+  if (b.kind == BlockKind::kPose) {
+    G.topLeftCorner<3, 3>() = RightJacobianSO3(delta.segment<3>(b.tangent_offset));
+  }
+  return G;
+}
+
 }  // namespace
 
 Eigen::MatrixXd SparseEstimate::Covariance(int a, int b) const {
@@ -424,24 +433,17 @@ SparseSummary SolveSparse(const std::vector<Factor>& factors, const std::vector<
     for (int j = 0; j < n; ++j) {
       for (int i = 0; i < n; ++i) P(i, j) = by_position(layout.coordinate[i], layout.coordinate[j]);
     }
-    // To the chart at the solution, G = Jr(δθ) on each rotation: P <- G P Gᵀ, G block-diagonal.
+    // To the chart at the solution: P <- G P Gᵀ, G block-diagonal.
     for (const Block& b : blocks) {
       if (b.kind != BlockKind::kPose) continue;
-      const Eigen::Matrix3d G = RightJacobianSO3(delta.segment<3>(b.tangent_offset));
-      P.middleRows<3>(b.tangent_offset) = G * P.middleRows<3>(b.tangent_offset);
-      P.middleCols<3>(b.tangent_offset) = P.middleCols<3>(b.tangent_offset) * G.transpose();
+      const Eigen::MatrixXd G = ChartAtSolution(b, delta);
+      const int dim = TangentDim(b.kind);
+      P.middleRows(b.tangent_offset, dim) = G * P.middleRows(b.tangent_offset, dim);
+      P.middleCols(b.tangent_offset, dim) = P.middleCols(b.tangent_offset, dim) * G.transpose();
     }
   } else if (summary.factorized) {
     if (!ldlt.has_selected_inverse()) ldlt.ComputeSelectedInverse();
-    // The chart at the solution: G = Jr(δθ) on each rotation, as SolveBatch and the filter.
-    auto chart = [&](int b) {
-      const int dim = TangentDim(blocks[b].kind);
-      Eigen::MatrixXd G = Eigen::MatrixXd::Identity(dim, dim);
-      if (blocks[b].kind == BlockKind::kPose) {
-        G.topLeftCorner<3, 3>() = RightJacobianSO3(delta.segment<3>(blocks[b].tangent_offset));
-      }
-      return G;
-    };
+    auto chart = [&](int b) { return ChartAtSolution(blocks[b], delta); };
     for (size_t b = 0; b < blocks.size(); ++b) {
       const int o = layout.coordinate[blocks[b].tangent_offset], dim = TangentDim(blocks[b].kind);
       Eigen::MatrixXd P(dim, dim);
