@@ -19,8 +19,10 @@
 //   - wrong: accepted but some component beyond that gate, and no alternative said is right
 //     (the target is 0);
 //   - refused: not accepted (exit 1, with the reason);
-// the share with alternatives reported, and the mean NEES (positions and orientations) over
-// the components of the right answers (3 when the covariance is honest).
+// the share with alternatives reported, the share with a valley named (Solution::valleys: a
+// part whose fit stays acceptable far along its tilt, the covariance widened), and the mean NEES
+// (positions and orientations) over the components of the right answers (3 when the covariance is
+// honest).
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -43,7 +45,8 @@ using namespace cfuse;
 constexpr double kGate = 21.108;  // chi-square, 3 DOF, 0.9999
 
 struct Tally {
-  int trials = 0, right = 0, ambiguous = 0, wrong = 0, refused = 0, alternatives = 0, failed_to_simulate = 0;
+  int trials = 0, right = 0, ambiguous = 0, wrong = 0, refused = 0, alternatives = 0, valleys = 0,
+      failed_to_simulate = 0;
   double nees = 0;
   int nees_count = 0;
 };
@@ -112,7 +115,8 @@ int Run(int argc, char** argv) {
 
   fmt::print(
       "| model | data | clutter | command | trials | right | ambiguous, said | wrong, accepted | "
-      "refused | alternatives | mean NEES (right) |\n|---|---|---|---|---|---|---|---|---|---|---|\n");
+      "refused | alternatives | valleys | mean NEES (right) |\n"
+      "|---|---|---|---|---|---|---|---|---|---|---|---|\n");
   for (const std::string& file : models) {
     const ConstraintGraph g = LoadModel(file);
     for (const bool image : {false, true}) {
@@ -157,6 +161,7 @@ int Run(int argc, char** argv) {
             continue;
           }
           if (!solution->alternatives.empty()) ++tally.alternatives;
+          if (!solution->valleys.empty()) ++tally.valleys;
           const std::vector<double> nees =
               Nees(g, sim.truth, solution->state.mean, solution->state.covariance);
           const double worst = *std::max_element(nees.begin(), nees.end());
@@ -211,17 +216,17 @@ int Run(int argc, char** argv) {
           }
         }
         const double n = std::max(1, tally.trials);
-        fmt::print("| {} | {} | {} | {} | {}{} | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % "
-                   "| {} |\n",
-                   g.name, image ? "one camera" : "3D points", clutter == 0 ? "none" : "1:1",
-                   clutter == 0 ? "solve" : "interpret", tally.trials,
-                   tally.failed_to_simulate
-                       ? fmt::format(" ({} views missed the image)", tally.failed_to_simulate)
-                       : "",
-                   100 * tally.right / n, 100 * tally.ambiguous / n, 100 * tally.wrong / n,
-                   100 * tally.refused / n,
-                   100 * tally.alternatives / n,
-                   tally.nees_count ? fmt::format("{:.2f}", tally.nees / tally.nees_count) : "-");
+        fmt::print(
+            "| {} | {} | {} | {} | {}{} | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % | {:.0f} % "
+            "| {:.0f} % | {} |\n",
+            g.name, image ? "one camera" : "3D points", clutter == 0 ? "none" : "1:1",
+            clutter == 0 ? "solve" : "interpret", tally.trials,
+            tally.failed_to_simulate
+                ? fmt::format(" ({} views missed the image)", tally.failed_to_simulate)
+                : "",
+            100 * tally.right / n, 100 * tally.ambiguous / n, 100 * tally.wrong / n,
+            100 * tally.refused / n, 100 * tally.alternatives / n, 100 * tally.valleys / n,
+            tally.nees_count ? fmt::format("{:.2f}", tally.nees / tally.nees_count) : "-");
         std::fflush(stdout);
       }
     }

@@ -87,6 +87,21 @@ void JudgeSolution(const ConstraintGraph& graph, const Solution& solution, Verdi
         solution.alternatives.size(), solution.alternatives.size() == 1 ? "" : "s", fits,
         solution.analysis.fit.chi2));
   }
+  for (const Solution::Valley& v : solution.valleys) {
+    std::string how;
+    if (v.towards_mirror > 0) {
+      how = fmt::format("{:.1f} degrees towards its mirror image", v.towards_mirror * 180 / M_PI);
+    }
+    if (v.away > 0) {
+      how += fmt::format("{}{:.1f} degrees away from it", how.empty() ? "" : " and ",
+                         v.away * 180 / M_PI);
+    }
+    verdict->lines.push_back(fmt::format(
+        "warning: '{}' can tilt {} with the fit still inside its 0.9999 interval, far beyond "
+        "its local covariance: the covariance is widened to cover that valley (\"valleys\" in "
+        "the result)",
+        v.component, how));
+  }
   if (!solution.fits) {
     verdict->lines.push_back(FitRefusal(solution));
     verdict->status = 1;

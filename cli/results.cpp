@@ -108,6 +108,12 @@ nlohmann::json SolutionJson(const ConstraintGraph& graph, const MeasurementSet& 
     }
     out["alternatives"].push_back(alternative);
   }
+  out["valleys"] = nlohmann::json::array();
+  for (const Solution::Valley& v : solution.valleys) {
+    out["valleys"].push_back({{"component", v.component},
+                              {"tilt_towards_mirror_rad", v.towards_mirror},
+                              {"tilt_away_rad", v.away}});
+  }
   out["status"] = {{"converged", solution.summary.converged && solution.fits},
                    {"constraints_hold", solution.summary.converged},
                    {"fits", solution.fits},

@@ -332,7 +332,7 @@ double NormalisedSquare(const ConstraintGraph& graph, const MeasurementSet& set,
 
 void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& labels,
-                   Solution* solution, const Values* start) {
+                   Solution* solution, const Values* start, const Eigen::VectorXd* pinned) {
   solution->contradictions.clear();
   solution->invalid.clear();
 
@@ -343,7 +343,17 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   scale.position = options.prior_extent_factor * solution->extent;
   scale.rotation = options.prior_rotation_sigma;
   scale.slack = options.prior_slack_sigma;
-  solution->state = MakePrior(graph.blocks, initial, scale);
+  // A pinned functional has zero prior variance, so no update moves it (uᵀ P = 0 makes uᵀ K = 0).
+  const auto prior = [&](const Values& mean) {
+    GaussianState state = MakePrior(graph.blocks, mean, scale);
+    if (pinned) {
+      const Eigen::VectorXd Pu = state.covariance * *pinned;
+      state.covariance -= Pu * Pu.transpose() / pinned->dot(Pu);
+      state.groups.MergeAll();
+    }
+    return state;
+  };
+  solution->state = prior(initial);
   StackedNames stacked;
   std::vector<Factor> factors =
       SolveFactors(graph, set, options, labels, initial, &solution->invalid, &stacked);
@@ -353,7 +363,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   // seen by one camera, a leg estimated on its range's end and truly well inside it: the top
   // plate 135 mm off, NEES 62 under the covariance that held the boundary, 54 without it).
   sequence.boundary_free_covariance = true;
-  const bool sparse = graph.tangent_dim() >= options.sparse_from_dim &&
+  const bool sparse = !pinned && graph.tangent_dim() >= options.sparse_from_dim &&
                       SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution);
   solution->sparse = sparse;
   if (!sparse) solution->summary = FuseSequence(factors, &solution->state, sequence);
@@ -376,7 +386,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   if (!acceptable() && !options.guess && !start) {
     // Placing unmeasured points can still pick the wrong one of two places their constraints
     // allow (a mirror image about their neighbours); the unplaced start is the second try.
-    GaussianState state = MakePrior(graph.blocks, unplaced, scale);
+    GaussianState state = prior(unplaced);
     SequenceSummary summary = FuseSequence(factors, &state, sequence);
     const Fit other = chi2(state);
     if (better(summary, other)) {
@@ -392,7 +402,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     // linearised there, is the last try (it brought 6 of 10 such lamps back).
     SequenceOptions from_start = sequence;
     from_start.gauss_newton_from_start = true;
-    GaussianState state = MakePrior(graph.blocks, initial, scale);
+    GaussianState state = prior(initial);
     SequenceSummary summary = FuseSequence(factors, &state, from_start);
     const Fit other = chi2(state);
     if (better(summary, other)) {
@@ -507,6 +517,7 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
     SolveLabelled(graph, set, options, used, &solution);
     solution.fits = solution.analysis.fit.p_value >= options.min_p_value;
     solution.alternatives.clear();
+    solution.valleys.clear();
     if (options.explore_starts && image && !options.guess) {
       ExploreStarts(graph, set, options, used, &solution);
     }

@@ -20,15 +20,38 @@ void PlaceUnmeasured(const ConstraintGraph& g, const std::vector<bool>& measured
 double NormalisedSquare(const ConstraintGraph& graph, const MeasurementSet& set,
                         const ResolvedLabel& r, const Values& values);
 
+// `start` turned about the centroid of the labelled points of `component` (every rigid
+// component and point when -1) so that the plane those points lie nearest to has its normal
+// mirrored about the line of sight (the camera at the world's origin): the other pose a
+// near-planar set of points seen in one image can take, projecting to nearly the same place.
+// `fraction` of that turn (1: the mirror image). False when there are fewer than three such
+// points.
+bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& labels, int component,
+              Values* start, double fraction = 1);
+
 // Whether a solve ended in an answer: converged, no constraint contradicted, every factor valid.
 bool Sound(const Solution& s);
 
 // Steps 2-4 for the measurements of `labels`: solution's state, summary, contradictions and
 // invalid factors. An image measurement whose point is at or behind the camera at the start is
-// not fused, and reported in `invalid`.
+// not fused, and reported in `invalid`. `pinned`, a functional u of the tangent at the start:
+// uᵀ δ is held at 0 (the filter alone, its prior without variance along u), so that the answer
+// is the best fit among states with that coordinate given (a profile of the fit).
 void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& labels,
-                   Solution* solution, const Values* start = nullptr);
+                   Solution* solution, const Values* start = nullptr,
+                   const Eigen::VectorXd* pinned = nullptr);
+
+// The fit's profile along the answer's two least determined directions (positions in units of
+// the model's extent, rotations in radians): from one image, a near-planar part can slide along
+// a long curved valley that the local covariance, right to a few sigmas, does not describe. Each
+// way along each direction, the best fit with the coordinate given is found at 4 sigmas; where
+// its chi-square grew by less than half of the Gaussian's 16, the walk goes on (8, 16, 32
+// sigmas), to the end of the 0.9999 profile interval (chi-square up by 15.1). Ends at 6 sigmas
+// or more, distinct from the answer and fitting, are added to its alternatives.
+void AddValleyEnds(const ConstraintGraph& graph, const MeasurementSet& set,
+                   const SolveOptions& options, const std::vector<ResolvedLabel>& used,
+                   Solution* solution);
 
 // From image measurements a solve can end in one of several minima (a near-planar part or the
 // whole object mirrored about the line of sight, a point on the far side of its anchors). The
@@ -39,7 +62,8 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
 // images alone left 3 of 50 answers on a worse minimum than the truth's, none said. The best fit
 // becomes the solution and the other distinct minima that the fit test does not reject its
 // alternatives. A best fit with a p-value below SolveOptions::explore_p_value is solved again
-// from the whole model posed by PnP at other values of each joint.
+// from the whole model posed by PnP at other values of each joint. Last, each rigid part's
+// valley of tilt is profiled (AddValleyEnds).
 void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& used,
                    Solution* solution);

@@ -29,6 +29,7 @@
 
 namespace cfuse {
 
+using internal::Mirrored;
 using internal::NormalisedSquare;
 using internal::SolveLabelled;
 
@@ -77,44 +78,6 @@ double MeanDepth(const std::vector<Eigen::Vector3d>& points) {
 
 Rigid3d& PoseOf(const ConstraintGraph& g, Values& v, int component) {
   return v.poses[g.blocks[g.components[component].block].index];
-}
-
-// `start` turned about the centroid of the labelled points of `component` (every rigid
-// component and point when -1) so that the plane those points lie nearest to has its normal
-// mirrored about the line of sight (the camera at the world's origin): the other pose a
-// near-planar set of points seen in one image can take, projecting to nearly the same place.
-// False when there are fewer than three such points.
-bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& labels, int component,
-              Values* start) {
-  std::vector<Eigen::Vector3d> points;
-  for (const ResolvedLabel& r : labels) {
-    if (component < 0 || r.component == component) {
-      points.push_back(ModelPoint(graph, *start, r.component, r.feature));
-    }
-  }
-  if (points.size() < 3) return false;
-  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) centroid += p;
-  centroid /= static_cast<double>(points.size());
-  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
-  const Eigen::Vector3d normal =
-      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
-  if (!(centroid.norm() > 0)) return false;
-  const Eigen::Vector3d sight = centroid.normalized();
-  const Eigen::Vector3d mirrored = 2 * normal.dot(sight) * sight - normal;
-  const Eigen::Quaterniond turn = Eigen::Quaterniond::FromTwoVectors(normal, mirrored);
-  const Rigid3d about(turn, centroid - turn * centroid);
-  for (size_t c = 0; c < graph.components.size(); ++c) {
-    if (component >= 0 && static_cast<int>(c) != component) continue;
-    const Block& b = graph.blocks[graph.components[c].block];
-    if (b.kind == BlockKind::kPose) {
-      start->poses[b.index] = about * start->poses[b.index];
-    } else {
-      start->points[b.index] = about * start->points[b.index];
-    }
-  }
-  return true;
 }
 
 // For each single point held by `distance == nominal` to three or more other single points:
@@ -341,6 +304,40 @@ Values ClosedFormStart(const ConstraintGraph& graph, const MeasurementSet& set,
 
 namespace internal {
 
+bool Mirrored(const ConstraintGraph& graph, const std::vector<ResolvedLabel>& labels, int component,
+              Values* start, double fraction) {
+  std::vector<Eigen::Vector3d> points;
+  for (const ResolvedLabel& r : labels) {
+    if (component < 0 || r.component == component) {
+      points.push_back(ModelPoint(graph, *start, r.component, r.feature));
+    }
+  }
+  if (points.size() < 3) return false;
+  Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points) centroid += p;
+  centroid /= static_cast<double>(points.size());
+  Eigen::Matrix3d scatter = Eigen::Matrix3d::Zero();
+  for (const Eigen::Vector3d& p : points) scatter += (p - centroid) * (p - centroid).transpose();
+  const Eigen::Vector3d normal =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(scatter).eigenvectors().col(0);
+  if (!(centroid.norm() > 0)) return false;
+  const Eigen::Vector3d sight = centroid.normalized();
+  const Eigen::Vector3d mirrored = 2 * normal.dot(sight) * sight - normal;
+  const Eigen::AngleAxisd whole(Eigen::Quaterniond::FromTwoVectors(normal, mirrored));
+  const Eigen::Quaterniond turn(Eigen::AngleAxisd(fraction * whole.angle(), whole.axis()));
+  const Rigid3d about(turn, centroid - turn * centroid);
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (component >= 0 && static_cast<int>(c) != component) continue;
+    const Block& b = graph.blocks[graph.components[c].block];
+    if (b.kind == BlockKind::kPose) {
+      start->poses[b.index] = about * start->poses[b.index];
+    } else {
+      start->points[b.index] = about * start->points[b.index];
+    }
+  }
+  return true;
+}
+
 bool Sound(const Solution& s) {
   return s.summary.converged && s.contradictions.empty() && s.invalid.empty();
 }
@@ -514,6 +511,7 @@ void ExploreStarts(const ConstraintGraph& graph, const MeasurementSet& set,
         });
     if (!seen) solution->alternatives.push_back({other.state.mean, other.analysis.fit});
   }
+  AddValleyEnds(graph, set, options, used, solution);
 }
 
 }  // namespace internal

@@ -150,7 +150,8 @@ class Result(Poses):
     """The answer of :func:`solve` or :func:`interpret`: the poses with covariances, the
     joints, ``matches`` (per measurement: the model point it was matched to, or None),
     ``fit``, ``converged`` (right as far as the data can tell), ``status`` (why not, or
-    "converged"), ``warnings`` (what the data leave open) and ``undetermined``."""
+    "converged"), ``warnings`` (what the data leave open), ``undetermined``, ``alternatives``
+    and ``valleys`` (docs/formats.md)."""
 
     def __init__(self, d: Optional[Dict[str, Any]], status: int, lines: List[str]):
         super().__init__(d)
@@ -159,6 +160,7 @@ class Result(Poses):
         self.fit = Fit(d.get("fit", {}))
         self.undetermined: List[str] = list(d.get("undetermined", []))
         self.alternatives: List[Poses] = [Poses(a) for a in d.get("alternatives", [])]
+        self.valleys: List[Dict[str, Any]] = list(d.get("valleys", []))
         self.search: Optional[Dict[str, Any]] = d.get("search")
         self.warnings = [line[len("warning: "):] for line in lines if line.startswith("warning: ")]
         reasons = [line for line in lines if not line.startswith("warning: ")]

@@ -92,6 +92,20 @@ def test_image_points_need_their_camera(examples):
     assert e.value.element == "camera"
 
 
+def test_a_valley_of_tilt_is_named(examples):
+    # A Stewart platform's top plate in one image (tests/interp/solve_valley_test.cpp): its fit
+    # stays acceptable 30 degrees along its tilt, which the result names and the warning says.
+    platform = cfuse.load_model(examples / "stewart-platform.yaml")
+    camera = cfuse.Camera(800, 800, 320, 240, 640, 480)
+    measurements, _ = cfuse.simulate(platform, seed=128, camera=camera, labels=True,
+                                     sample_joints=True)
+    result = cfuse.solve(platform, measurements)
+    assert result.converged
+    assert [v["component"] for v in result.valleys] == ["top"]
+    assert result.valleys[0]["tilt_towards_mirror_rad"] > 0.3
+    assert any(w.startswith("'top' can tilt") for w in result.warnings)
+
+
 def test_interpret_against_the_cli(examples, cli, tmp_path):
     lamp = cfuse.load_model(examples / "lamp.yaml")
     measurements, truth = cfuse.simulate(lamp, seed=7, clutter=1, occlusion=0.1)

@@ -64,6 +64,10 @@ struct SolveOptions {
   // values of each joint too (0: never). `interpret` explores its answer's labelling so too
   // when the answer's fit is below it (its solves start from the tree's estimate).
   double explore_p_value = 0.05;
+  // ... and each rigid part's fit profiled along its tilt towards its mirror image and away
+  // (Solution::valleys): where it stays acceptable far beyond the covariance, the covariance is
+  // widened to cover it.
+  bool profile_valleys = true;
   // From this many tangent dimensions of state on, the labelled solve is tried first by the
   // sparse solver (cfuse/kernel/sparse_solver.h), whose cost follows the model's graph where
   // the filter's grows with the square of the state per update: its answer is kept when it
@@ -112,6 +116,17 @@ struct Solution {
     Fit fit;
   };
   std::vector<Alternative> alternatives;
+  // From one image (models whose covariance is computed whole, under full_covariance_below
+  // dimensions): rigid components whose fit stays inside its 0.9999 profile interval while
+  // they tilt (towards their mirror image about the line of sight, or away from it) to 6 or
+  // more of the covariance's sigmas: a long curved valley that the local covariance does not
+  // describe. The covariance is widened to cover the states found along it, and its far end
+  // is among the alternatives unless one already lies there.
+  struct Valley {
+    std::string component;
+    double towards_mirror = 0, away = 0;  // radians of tilt inside the interval, 0: Gaussian
+  };
+  std::vector<Valley> valleys;
   // Solved by the sparse solver (SolveOptions::sparse_from_dim). From
   // SolveOptions::full_covariance_below dimensions on, the covariance then holds each
   // component's block and each joint's pair of components only, NaN elsewhere.
