@@ -42,13 +42,14 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
                    Solution* solution, const Values* start = nullptr,
                    const Eigen::VectorXd* pinned = nullptr);
 
-// The fit's profile along the answer's two least determined directions (positions in units of
-// the model's extent, rotations in radians): from one image, a near-planar part can slide along
-// a long curved valley that the local covariance, right to a few sigmas, does not describe. Each
-// way along each direction, the best fit with the coordinate given is found at 4 sigmas; where
-// its chi-square grew by less than half of the Gaussian's 16, the walk goes on (8, 16, 32
-// sigmas), to the end of the 0.9999 profile interval (chi-square up by 15.1). Ends at 6 sigmas
-// or more, distinct from the answer and fitting, are added to its alternatives.
+// The fit's profile along each rigid part's tilt towards its mirror image (Mirrored's turn)
+// and away from it: from one image, a near-planar part can slide along a long curved valley
+// that the local covariance, right to a few sigmas, does not describe. Each way, the best fit
+// with the tilt given is found at 4 sigmas; where its chi-square grew by less than half of the
+// Gaussian's 16, the walk goes on (8, 16, 32 sigmas) to the end of the 0.9999 profile interval
+// (chi-square up by 15.1). A walk that ends 6 sigmas or more away names the valley
+// (Solution::valleys), adds its end to the alternatives unless one lies there, and widens the
+// covariance to cover the states it found.
 void AddValleyEnds(const ConstraintGraph& graph, const MeasurementSet& set,
                    const SolveOptions& options, const std::vector<ResolvedLabel>& used,
                    Solution* solution);

@@ -46,10 +46,10 @@ void AddValleyEnds(const ConstraintGraph& graph, const MeasurementSet& set,
     const Rigid3d& pose = answer.poses[block.index];
     const Eigen::AngleAxisd turn(pose.rotation.conjugate() * mirror.poses[block.index].rotation);
     if (!(turn.angle() > 0)) continue;
+    const double sigma = std::sqrt(turn.axis().dot(P.block<3, 3>(o, o) * turn.axis()));
+    if (!(sigma > 0)) continue;
     Eigen::VectorXd u = Eigen::VectorXd::Zero(P.rows());
     u.segment<3>(o) = turn.axis();
-    const double sigma = std::sqrt(u.dot(P * u));
-    if (!(sigma > 0)) continue;
     Solution::Valley valley{graph.components[c].name, 0, 0};
     for (const double sign : {1.0, -1.0}) {
       // The best fit with the part turned by `k` sigmas of tilt, started there with the rest of
