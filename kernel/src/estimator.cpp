@@ -13,6 +13,7 @@
 
 namespace cfuse {
 
+using internal::CombineColumns;
 using internal::ForwardSubstitute;
 using internal::QuadraticForm;
 using internal::ResetRotationBlock;
@@ -82,8 +83,8 @@ struct Workspace {
   std::vector<int> support_blocks;  // blocks correlated with the factor's, by tangent offset
   std::vector<int> support;         // their tangent coordinates
   std::vector<int> position;        // where each of `index` sits in `support`
-  std::vector<double> P_sa, P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init,
-      innovation;
+  std::vector<const double*> columns;  // where each column of the factor starts in P
+  std::vector<double> P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init, innovation;
   std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv, signs;
   std::vector<int> keep;
   std::vector<Run> runs;  // of the support
@@ -121,30 +122,39 @@ void GatherSupport(const Factor& factor, const GaussianState& state, Workspace* 
   if (!std::is_sorted(ws->support_blocks.begin(), ws->support_blocks.end(), by_offset)) {
     std::sort(ws->support_blocks.begin(), ws->support_blocks.end(), by_offset);
   }
-  ws->support.clear();
   ws->runs.clear();
+  int s = 0;
   for (int b : ws->support_blocks) {
     const int first = blocks[b].tangent_offset, dim = TangentDim(blocks[b].kind);
     if (!ws->runs.empty() && ws->runs.back().first + ws->runs.back().size == first) {
       ws->runs.back().size += dim;
     } else {
-      ws->runs.push_back({first, static_cast<int>(ws->support.size()), dim});
+      ws->runs.push_back({first, s, dim});
     }
-    for (int i = 0; i < dim; ++i) ws->support.push_back(first + i);
+    s += dim;
   }
-  const std::vector<int>& S = ws->support;
-  const int s = static_cast<int>(S.size()), a = static_cast<int>(ws->index.size());
+  ws->support.resize(s);
+  for (const Run& run : ws->runs) {
+    std::iota(ws->support.begin() + run.at, ws->support.begin() + run.at + run.size, run.first);
+  }
+  // Each column's place in the support, through the run holding it (runs are few and sorted).
+  const int a = static_cast<int>(ws->index.size());
   ws->position.resize(a);
   for (int j = 0; j < a; ++j) {
-    ws->position[j] =
-        static_cast<int>(std::lower_bound(S.begin(), S.end(), ws->index[j]) - S.begin());
-    CFUSE_CHECK(ws->position[j] < s && S[ws->position[j]] == ws->index[j]);
+    const int coordinate = ws->index[j];
+    const auto run = std::upper_bound(ws->runs.begin(), ws->runs.end(), coordinate,
+                                      [](int x, const Run& r) { return x < r.first; });
+    CFUSE_CHECK(run != ws->runs.begin());
+    const Run& held = *std::prev(run);
+    CFUSE_CHECK(coordinate < held.first + held.size);
+    ws->position[j] = held.at + coordinate - held.first;
   }
 }
 
-// The update's prior on the support: P(S, a), P(a, a) and the columns' prior variances; its
-// prior mean μ in the chart (0, or the offset the sequence carries) and the first iterate δ
-// (μ, or `linearize_at` on the factor's blocks), over the support and over its columns.
+// The update's prior on the support: where P(S, a)'s columns start in P, P(a, a) and the
+// columns' prior variances; its prior mean μ in the chart (0, or the offset the sequence
+// carries) and the first iterate δ (μ, or `linearize_at` on the factor's blocks), over the
+// support and over its columns.
 void GatherPrior(const Factor& factor, const GaussianState& state, const Values* linearize_at,
                  const Eigen::VectorXd* offset, Workspace* ws) {
   const std::vector<Block>& blocks = state.blocks;
@@ -152,14 +162,13 @@ void GatherPrior(const Factor& factor, const GaussianState& state, const Values*
   const std::vector<int>& S = ws->support;
   const int s = static_cast<int>(S.size()), a = static_cast<int>(ws->index.size());
   const int n = state.dim();
-  Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws->P_sa, s, a);
-  for (int j = 0; j < a; ++j) {
-    for (const Run& run : ws->runs) {
-      P_sa.col(j).segment(run.at, run.size) = P.col(ws->index[j]).segment(run.first, run.size);
-    }
-  }
+  // P(S, a) is read in place (the covariance does not change until the update's end).
+  ws->columns.resize(a);
+  for (int j = 0; j < a; ++j) ws->columns[j] = P.data() + static_cast<long>(ws->index[j]) * n;
   Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws->P_aa, a, a);
-  for (int i = 0; i < a; ++i) P_aa.row(i) = P_sa.row(ws->position[i]);
+  for (int j = 0; j < a; ++j) {
+    for (int i = 0; i < a; ++i) P_aa(i, j) = ws->columns[j][ws->index[i]];
+  }
   Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws->prior_aa, a);
   for (int j = 0; j < a; ++j) prior_a(j) = state.prior_variance[ws->index[j]];
 
@@ -220,6 +229,49 @@ bool WhitenMeasurement(const Eigen::MatrixXd& noise, const Eigen::Map<Eigen::Mat
   return true;
 }
 
+// WhitenConstraint (below) for a single row, the commonest constraint (a distance, an angle, a
+// limit): the same arithmetic, in the same order, without its small dynamic matrices, whose
+// set-up cost more than the row's products.
+int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
+                           const Eigen::Map<Eigen::MatrixXd>& P_aa,
+                           const Eigen::Map<Eigen::VectorXd>& prior_a, double innovation,
+                           bool first, const FusionOptions& options, Workspace* ws,
+                           FusionSummary* summary) {
+  const int a = static_cast<int>(H.cols());
+  double s_init = 0;
+  for (int l = 0; l < a; ++l) s_init += H(0, l) * prior_a(l) * H(0, l);
+  // The row scaled to unit prior variance (t), and ρ = tᵀ S t, the fraction of it left.
+  const double t = s_init > 0 ? 1 / std::sqrt(s_init) : 0.0;
+  Eigen::Map<Eigen::MatrixXd> G = Scratch(&ws->G, a, 1);
+  for (int l = 0; l < a; ++l) G(l, 0) = H(0, l) * t;
+  double rho = 0;
+  if (t > 0) {
+    Eigen::Map<Eigen::MatrixXd> rho_map(&rho, 1, 1);
+    QuadraticForm(G, P_aa, &ws->PG, &rho_map);
+  }
+  const bool kept = t > 0 && rho > options.degeneracy_tolerance;
+  if (first) {
+    // Already determined: consistent only if the innovation has no component along t.
+    summary->contradiction = t > 0 && !kept ? std::abs(t * innovation) : 0.0;
+    if (summary->contradiction > options.contradiction_tolerance) {
+      summary->status = FusionSummary::Status::kContradiction;
+      return -1;
+    }
+    if (!kept) {
+      summary->status = FusionSummary::Status::kRedundant;
+      return -1;
+    }
+    summary->rows_fused = 1;
+  }
+  if (!kept) return 0;
+  const double scale = 1 / std::sqrt(rho);
+  Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws->A, a, 1);
+  for (int l = 0; l < a; ++l) A(l, 0) = scale * G(l, 0);
+  ScratchVector(&ws->z, 1)(0) = scale * t * innovation;
+  Scratch(&ws->M, 1, 1)(0, 0) = rho / std::sqrt(rho) / std::sqrt(rho);
+  return 1;
+}
+
 // A constraint's whitened directions: A = Hᵀ B and z = Bᵀ innovation over the directions it
 // still constrains, B = t ρ^(-1/2), and M = Aᵀ P0 A for the Joseph form. Returns their number
 // k; 0 when none is left; -1 (with the status in `summary`) when the first iteration finds the
@@ -229,6 +281,9 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
                      const Eigen::Map<Eigen::VectorXd>& innovation, bool first,
                      const FusionOptions& options, Workspace* ws, FusionSummary* summary) {
   const int m = static_cast<int>(H.rows()), a = static_cast<int>(H.cols());
+  if (m == 1) {
+    return WhitenScalarConstraint(H, P_aa, prior_a, innovation(0), first, options, ws, summary);
+  }
   Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws->HP, m, a), S_mat = Scratch(&ws->S, m, m);
   Eigen::Map<Eigen::MatrixXd> S_init = Scratch(&ws->S_init, m, m), U = Scratch(&ws->U, m, m);
   Eigen::Map<Eigen::VectorXd> lambda = ScratchVector(&ws->lambda, m);
@@ -252,29 +307,24 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
   Eigen::Map<Eigen::MatrixXd> T = Scratch(&ws->T, m, m);
   int rank = 0;
   double contradiction = 0;
-  if (m == 1) {
-    T(0, 0) = d(0);
-    rank = d(0) > 0 ? 1 : 0;
-  } else {
-    ws->eigen.compute(S_init);
-    for (int i = 0; i < m; ++i) {
-      const double mu = ws->eigen.eigenvalues()(i);
-      if (mu > kRankTolerance * m) {
-        T.col(rank++) = d.cwiseProduct(ws->eigen.eigenvectors().col(i)) / std::sqrt(mu);
-      } else if (first) {
-        // Consistent only if the rows' innovations are the same combination (measured in
-        // the rows' prior deviations).
-        contradiction =
-            std::max(contradiction,
-                     std::abs(d.cwiseProduct(ws->eigen.eigenvectors().col(i)).dot(innovation)));
-      }
+  ws->eigen.compute(S_init);
+  for (int i = 0; i < m; ++i) {
+    const double mu = ws->eigen.eigenvalues()(i);
+    if (mu > kRankTolerance * m) {
+      T.col(rank++) = d.cwiseProduct(ws->eigen.eigenvectors().col(i)) / std::sqrt(mu);
+    } else if (first) {
+      // Consistent only if the rows' innovations are the same combination (measured in the
+      // rows' prior deviations).
+      contradiction = std::max(
+          contradiction, std::abs(d.cwiseProduct(ws->eigen.eigenvectors().col(i)).dot(innovation)));
     }
   }
   // The variances on T, Tᵀ S T, as Gᵀ P0 G with G = Hᵀ T: forming S = H P0 Hᵀ first loses
   // them to cancellation where rows are nearly dependent (T then large).
   Eigen::Map<Eigen::MatrixXd> Tr = Scratch(&ws->T, m, rank), G = Scratch(&ws->G, a, rank);
   Eigen::Map<Eigen::MatrixXd> Sr = Scratch(&ws->C, rank, rank);
-  if (m > 1 && rank == m && ws->eigen.eigenvalues()(0) > kWellConditioned) {
+  const bool well_conditioned = rank == m && ws->eigen.eigenvalues()(0) > kWellConditioned;
+  if (well_conditioned) {
     // Rows far from dependent: the eigenvectors u of S, accurate there (the directions the
     // filter always took for such rows, with which the interpretation tree's gates were tuned).
     SmallProduct(H, P_aa, &HP);
@@ -349,9 +399,19 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
     z(j) = B.col(j).dot(innovation);
   }
   // M = Aᵀ P0 A, for the Joseph form below: from the A used, as roundoff in it is what the
-  // Joseph form absorbs.
+  // Joseph form absorbs. Where U = I (one direction, or S's eigenvectors), each column of A is a
+  // column of G times its scale, so M is Sr = Gᵀ P0 G scaled on both sides: the same products.
   Eigen::Map<Eigen::MatrixXd> M = Scratch(&ws->M, k, k);
-  QuadraticForm(Scratch(&ws->A, a, k), P_aa, &ws->PG, &M);
+  if (well_conditioned || rank == 1) {
+    for (int j = 0; j < k; ++j) {
+      for (int i = 0; i <= j; ++i) {
+        M(i, j) = M(j, i) = Sr(ws->keep[i], ws->keep[j]) / std::sqrt(lambda(ws->keep[i])) /
+                            std::sqrt(lambda(ws->keep[j]));
+      }
+    }
+  } else {
+    QuadraticForm(Scratch(&ws->A, a, k), P_aa, &ws->PG, &M);
+  }
   return k;
 }
 
@@ -429,7 +489,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   CFUSE_CHECK_EQ(state->covariance.rows(), n);
   CFUSE_CHECK_EQ(state->covariance.cols(), n);
   GatherPrior(factor, *state, linearize_at, offset, &ws);
-  const Eigen::Map<Eigen::MatrixXd> P_sa = Scratch(&ws.P_sa, s, a), P_aa = Scratch(&ws.P_aa, a, a);
+  const Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws.P_aa, a, a);
   const Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws.prior_aa, a);
   const Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws.mu, s),
                                     mu_a = ScratchVector(&ws.mu_a, a);
@@ -485,16 +545,17 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       k = kept;
     }
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
-    if (k == 1) {
-      W.col(0).noalias() = P_sa * A.col(0);
-    } else {
-      W.noalias() = P_sa * A.leftCols(k);
+    for (int j = 0; j < k; ++j) {
+      for (const Run& run : ws.runs) {
+        CombineColumns(ws.columns.data(), run.first, run.size, a, A.col(j).data(),
+                       W.col(j).data() + run.at);
+      }
     }
     if (finishing) break;
     if (iteration == 0) summary.innovation_nis = z.head(k).squaredNorm();
     summary.final_nis = z.head(k).squaredNorm();
     next = mu;
-    next.noalias() += W * z.head(k);
+    for (int j = 0; j < k; ++j) next += z(j) * W.col(j);
     const double step = (next - delta).lpNorm<Eigen::Infinity>();
     delta = next;
     for (int j = 0; j < a; ++j) delta_a(j) = delta(ws.position[j]);

@@ -29,6 +29,43 @@ void SubtractOuterProductColumns(const Run* runs, int num_runs, const double* w,
 
 }  // namespace
 
+namespace {
+
+// out[i] = Σ_l coefficients[l] column(l)[i], four columns at a time, so each entry of `out` is
+// loaded and stored once per four products.
+template <typename ColumnAt>
+inline void Combine(const ColumnAt& column, long rows, long cols, const double* coefficients,
+                    double* out) {
+  for (long i = 0; i < rows; ++i) out[i] = 0;
+  long l = 0;
+  for (; l + 4 <= cols; l += 4) {
+    const double c0 = coefficients[l], c1 = coefficients[l + 1], c2 = coefficients[l + 2],
+                 c3 = coefficients[l + 3];
+    const double *p0 = column(l), *p1 = column(l + 1), *p2 = column(l + 2), *p3 = column(l + 3);
+    for (long i = 0; i < rows; ++i) out[i] += p0[i] * c0 + p1[i] * c1 + p2[i] * c2 + p3[i] * c3;
+  }
+  for (; l < cols; ++l) {
+    const double c = coefficients[l];
+    const double* p = column(l);
+    for (long i = 0; i < rows; ++i) out[i] += p[i] * c;
+  }
+}
+
+}  // namespace
+
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+__attribute__((target_clones("arch=x86-64-v3", "default")))
+#endif
+void CombineColumns(const double* P, long rows, long cols, const double* coefficients,
+                    double* out) {
+  Combine([&](long l) { return P + l * rows; }, rows, cols, coefficients, out);
+}
+
+void CombineColumns(const double* const* columns, long offset, long rows, long cols,
+                    const double* coefficients, double* out) {
+  Combine([&](long l) { return columns[l] + offset; }, rows, cols, coefficients, out);
+}
+
 void SubtractOuterProduct(const std::vector<Run>& runs, const Eigen::Map<Eigen::MatrixXd>& W,
                           const double* signs, Eigen::MatrixXd* P) {
   for (int l = 0; l < W.cols(); ++l) {

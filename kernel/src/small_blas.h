@@ -33,12 +33,23 @@ struct Run {
 void SubtractOuterProduct(const std::vector<Run>& runs, const Eigen::Map<Eigen::MatrixXd>& W,
                           const double* signs, Eigen::MatrixXd* P);
 
+// out = Σ_l coefficients[l] P(:, l) for a column-major `rows` x `cols` P (out = P c), for the
+// quadratic forms below.
+void CombineColumns(const double* P, long rows, long cols, const double* coefficients, double* out);
+
+// The same over `cols` columns given by their starts, rows [offset, offset + rows) of each: the
+// gain columns W = P(S, a) A of every update, read in place from the covariance, a run of the
+// support at a time. Not compiled for FMA: the gain feeds every later update, and the tracker's
+// edge-on lid (tests/track/places_test.cpp) is decided by roundoff in it.
+void CombineColumns(const double* const* columns, long offset, long rows, long cols,
+                    const double* coefficients, double* out);
+
 // Moves rows and columns o..o+2 (a rotation block, inside the support) from the chart at x0
 // to the chart at x0 ⊞ δ: P <- G P Gᵀ with G = Jr(δθ) on that block, exactly symmetric.
 void ResetRotationBlock(const std::vector<Run>& runs, int o, const Eigen::Matrix3d& G,
                         Eigen::MatrixXd* P);
 
-// C = A B for small dynamic matrices, coefficient by coefficient.
+// C = A B for small dynamic matrices, coefficient by coefficient (A is a few rows: a Jacobian).
 inline void SmallProduct(const Eigen::Map<Eigen::MatrixXd>& A, const Eigen::Map<Eigen::MatrixXd>& B,
                          Eigen::Map<Eigen::MatrixXd>* C) {
   for (int j = 0; j < B.cols(); ++j) {
@@ -78,7 +89,9 @@ inline void QuadraticForm(const Eigen::Map<Eigen::MatrixXd>& G,
                           Eigen::Map<Eigen::MatrixXd>* out) {
   Eigen::Map<Eigen::MatrixXd> PG =
       Scratch(storage, static_cast<int>(P.rows()), static_cast<int>(G.cols()));
-  SmallProduct(P, G, &PG);
+  for (long j = 0; j < G.cols(); ++j) {
+    CombineColumns(P.data(), P.rows(), P.cols(), G.col(j).data(), PG.col(j).data());
+  }
   for (int j = 0; j < G.cols(); ++j) {
     for (int i = 0; i <= j; ++i) {
       (*out)(i, j) = (*out)(j, i) = 0.5 * (G.col(i).dot(PG.col(j)) + G.col(j).dot(PG.col(i)));

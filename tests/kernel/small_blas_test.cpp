@@ -1,7 +1,8 @@
 // The filter's small dense routines (kernel/src/small_blas.h) against Eigen's dense products and
 // solves: the outer-product update and the rotation block's reset on a support of runs in any
 // order, touching nothing outside it and leaving the matrix exactly symmetric; the small
-// products, the quadratic form and the forward substitution; scratch that only grows.
+// products, the quadratic form and the forward substitution; columns combined, packed and in
+// place; scratch that only grows.
 #include "small_blas.h"
 
 #include <Eigen/Cholesky>
@@ -114,6 +115,29 @@ TEST_CASE("small blas: small products, the quadratic form, forward substitution"
   ForwardSubstitute(L, &F, &Z);
   CHECK((F * L.transpose() - F0).norm() < 1e-14);
   CHECK((L * Z - Z0).norm() < 1e-14);
+}
+
+// Seven columns: one group of four and a remainder of three. In place, the columns are picked
+// out of a larger matrix in any order and a block of their rows is combined, as the gain reads
+// P(S, a) from the covariance a run at a time.
+TEST_CASE("small blas: columns combined, packed and in place", "[kernel]") {
+  std::srand(29);
+  const Eigen::MatrixXd P = Eigen::MatrixXd::Random(9, 7);
+  const Eigen::VectorXd c = Eigen::VectorXd::Random(7);
+  Eigen::VectorXd out(9);
+  CombineColumns(P.data(), 9, 7, c.data(), out.data());
+  CHECK((out - P * c).norm() < 1e-14);
+
+  const Eigen::MatrixXd big = Eigen::MatrixXd::Random(12, 12);
+  const std::vector<int> picked = {10, 2, 7, 3, 0, 11, 5};
+  std::vector<const double*> columns;
+  for (int j : picked) columns.push_back(big.data() + 12L * j);
+  Eigen::VectorXd rows(5);
+  rows.setConstant(NAN);  // every entry written
+  CombineColumns(columns.data(), 4, 5, 7, c.data(), rows.data());
+  Eigen::VectorXd expected = Eigen::VectorXd::Zero(5);
+  for (int l = 0; l < 7; ++l) expected += c(l) * big.col(picked[l]).segment(4, 5);
+  CHECK((rows - expected).norm() < 1e-14);
 }
 
 TEST_CASE("small blas: scratch grows and keeps its storage", "[kernel]") {
