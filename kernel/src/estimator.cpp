@@ -87,6 +87,7 @@ struct Workspace {
   std::vector<double> P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init, innovation;
   std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv, signs;
   std::vector<int> keep;
+  bool gain_ready = false;  // W already formed by the whitening (one row)
   std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
   Eigen::LLT<Eigen::MatrixXd> llt;
@@ -230,10 +231,9 @@ bool WhitenMeasurement(const Eigen::MatrixXd& noise, const Eigen::Map<Eigen::Mat
 }
 
 // WhitenConstraint (below) for a single row, the commonest constraint (a distance, an angle, a
-// limit): the same arithmetic, in the same order, without its small dynamic matrices, whose
-// set-up cost more than the row's products.
+// limit): the same quantities without its small dynamic matrices, whose set-up cost more than
+// the row's products, and with the gain W formed on the way (Workspace::gain_ready).
 int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
-                           const Eigen::Map<Eigen::MatrixXd>& P_aa,
                            const Eigen::Map<Eigen::VectorXd>& prior_a, double innovation,
                            bool first, const FusionOptions& options, Workspace* ws,
                            FusionSummary* summary) {
@@ -244,10 +244,16 @@ int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
   const double t = s_init > 0 ? 1 / std::sqrt(s_init) : 0.0;
   Eigen::Map<Eigen::MatrixXd> G = Scratch(&ws->G, a, 1);
   for (int l = 0; l < a; ++l) G(l, 0) = H(0, l) * t;
+  // P(S, a) G over the support, whose entries at the factor's own columns give ρ = Gᵀ P(a, a) G
+  // and which, scaled, is the gain W: one sweep over the covariance's columns for both.
+  const int s = static_cast<int>(ws->support.size());
+  Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws->W, s, 1);
   double rho = 0;
   if (t > 0) {
-    Eigen::Map<Eigen::MatrixXd> rho_map(&rho, 1, 1);
-    QuadraticForm(G, P_aa, &ws->PG, &rho_map);
+    for (const Run& run : ws->runs) {
+      CombineColumns(ws->columns.data(), run.first, run.size, a, G.data(), W.data() + run.at);
+    }
+    for (int l = 0; l < a; ++l) rho += G(l, 0) * W(ws->position[l], 0);
   }
   const bool kept = t > 0 && rho > options.degeneracy_tolerance;
   if (first) {
@@ -265,8 +271,8 @@ int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
   }
   if (!kept) return 0;
   const double scale = 1 / std::sqrt(rho);
-  Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws->A, a, 1);
-  for (int l = 0; l < a; ++l) A(l, 0) = scale * G(l, 0);
+  W *= scale;
+  ws->gain_ready = true;
   ScratchVector(&ws->z, 1)(0) = scale * t * innovation;
   Scratch(&ws->M, 1, 1)(0, 0) = rho / std::sqrt(rho) / std::sqrt(rho);
   return 1;
@@ -282,7 +288,7 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
                      const FusionOptions& options, Workspace* ws, FusionSummary* summary) {
   const int m = static_cast<int>(H.rows()), a = static_cast<int>(H.cols());
   if (m == 1) {
-    return WhitenScalarConstraint(H, P_aa, prior_a, innovation(0), first, options, ws, summary);
+    return WhitenScalarConstraint(H, prior_a, innovation(0), first, options, ws, summary);
   }
   Eigen::Map<Eigen::MatrixXd> HP = Scratch(&ws->HP, m, a), S_mat = Scratch(&ws->S, m, m);
   Eigen::Map<Eigen::MatrixXd> S_init = Scratch(&ws->S_init, m, m), U = Scratch(&ws->U, m, m);
@@ -530,6 +536,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
 
     Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
     Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
+    ws.gain_ready = false;
     if (!factor.is_constraint()) {
       if (!WhitenMeasurement(factor.noise, H, P_aa, innovation, &ws)) {
         summary.status = FusionSummary::Status::kInvalid;
@@ -545,7 +552,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       k = kept;
     }
     Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
-    for (int j = 0; j < k; ++j) {
+    for (int j = 0; j < k && !ws.gain_ready; ++j) {
       for (const Run& run : ws.runs) {
         CombineColumns(ws.columns.data(), run.first, run.size, a, A.col(j).data(),
                        W.col(j).data() + run.at);

@@ -39,8 +39,9 @@ void CombineColumns(const double* P, long rows, long cols, const double* coeffic
 
 // The same over `cols` columns given by their starts, rows [offset, offset + rows) of each: the
 // gain columns W = P(S, a) A of every update, read in place from the covariance, a run of the
-// support at a time. Not compiled for FMA: the gain feeds every later update, and the tracker's
-// edge-on lid (tests/track/places_test.cpp) is decided by roundoff in it.
+// support at a time. Compiled for AVX2 but not FMA, so that its results do not depend on the
+// CPU: the gain feeds every later update, and the tracker's edge-on lid
+// (tests/track/places_test.cpp) is decided by roundoff in it.
 void CombineColumns(const double* const* columns, long offset, long rows, long cols,
                     const double* coefficients, double* out);
 
