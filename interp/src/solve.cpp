@@ -266,7 +266,7 @@ void StoreReported(const ConstraintGraph& graph, const SparseEstimate& estimate,
 bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                       const Values& initial, const PriorScale& scale,
                       const SequenceOptions& sequence, const SolveOptions& options,
-                      Solution* solution) {
+                      Solution* solution, Fit* fit) {
   SparseOptions sparse;
   sparse.constraint_tolerance = sequence.constraint_tolerance;
   sparse.full_covariance = graph.tangent_dim() < options.full_covariance_below;
@@ -291,10 +291,8 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
     const double lambda = estimate.mean.slacks[graph.blocks[c.slack_block].index];
     if (lambda * lambda <= kBoundary * sequence.constraint_tolerance) return false;
   }
-  if (AnalyseFit(factors, graph.blocks, estimate.mean, solution->extent, false).fit.p_value <
-      options.min_p_value) {
-    return false;
-  }
+  *fit = AnalyseFit(factors, graph.blocks, estimate.mean, solution->extent, false).fit;
+  if (fit->p_value < options.min_p_value) return false;
   GaussianState& state = solution->state;
   state.mean = std::move(estimate.mean);
   if (sparse.full_covariance) {
@@ -363,8 +361,10 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   // seen by one camera, a leg estimated on its range's end and truly well inside it: the top
   // plate 135 mm off, NEES 62 under the covariance that held the boundary, 54 without it).
   sequence.boundary_free_covariance = true;
-  const bool sparse = !pinned && graph.tangent_dim() >= options.sparse_from_dim &&
-                      SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution);
+  Fit fit;
+  const bool sparse =
+      !pinned && graph.tangent_dim() >= options.sparse_from_dim &&
+      SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution, &fit);
   solution->sparse = sparse;
   if (!sparse) solution->summary = FuseSequence(factors, &solution->state, sequence);
   // A converged estimate that the measurements do not fit is a local minimum as surely as an
@@ -372,7 +372,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   const auto chi2 = [&](const GaussianState& state) {
     return AnalyseFit(factors, graph.blocks, state.mean, solution->extent, false).fit;
   };
-  Fit fit = chi2(solution->state);
+  if (!sparse) fit = chi2(solution->state);
   const auto acceptable = [&] {
     return solution->summary.converged && fit.p_value >= options.min_p_value;
   };

@@ -166,9 +166,12 @@ void GatherPrior(const Factor& factor, const GaussianState& state, const Values*
   // P(S, a) is read in place (the covariance does not change until the update's end).
   ws->columns.resize(a);
   for (int j = 0; j < a; ++j) ws->columns[j] = P.data() + static_cast<long>(ws->index[j]) * n;
+  // (A one-row constraint reads its columns' block through the gain: WhitenScalarConstraint.)
   Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws->P_aa, a, a);
-  for (int j = 0; j < a; ++j) {
-    for (int i = 0; i < a; ++i) P_aa(i, j) = ws->columns[j][ws->index[i]];
+  if (!factor.is_constraint() || factor.residual->dimension() > 1) {
+    for (int j = 0; j < a; ++j) {
+      for (int i = 0; i < a; ++i) P_aa(i, j) = ws->columns[j][ws->index[i]];
+    }
   }
   Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws->prior_aa, a);
   for (int j = 0; j < a; ++j) prior_a(j) = state.prior_variance[ws->index[j]];
