@@ -87,8 +87,8 @@ struct Workspace {
   std::vector<double> P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init, innovation;
   std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv, signs;
   std::vector<int> keep;
+  std::vector<Run> runs;    // of the support
   bool gain_ready = false;  // W already formed by the whitening (one row)
-  std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
   Eigen::LLT<Eigen::MatrixXd> llt;
 };

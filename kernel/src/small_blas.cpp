@@ -27,10 +27,6 @@ void SubtractOuterProductColumns(const Run* runs, int num_runs, const double* w,
   }
 }
 
-}  // namespace
-
-namespace {
-
 // out[i] = Σ_l coefficients[l] column(l)[i], four columns at a time, so each entry of `out` is
 // loaded and stored once per four products.
 template <typename ColumnAt>

@@ -4,6 +4,7 @@
 // models (with the DSL) are in tests/fusion/estimator_test.cpp.
 #include "cfuse/kernel/estimator.h"
 
+#include <Eigen/Eigenvalues>
 #include <catch2/catch.hpp>
 #include <memory>
 
@@ -66,6 +67,50 @@ TEST_CASE("estimator: a constraint is met exactly, then redundant, then contradi
   const FusionSummary s = Fuse(other, &state);
   CHECK(s.status == FusionSummary::Status::kContradiction);
   CHECK(s.contradiction > 0);
+  CHECK(state.mean.points[0] == before.mean.points[0]);
+  CHECK(state.covariance == before.covariance);
+}
+
+// One row, the filter's own path for scalar constraints: a point's distance from the origin.
+class RadiusResidual : public AutoDiffResidual<RadiusResidual> {
+ public:
+  explicit RadiusResidual(double radius)
+      : AutoDiffResidual(1, {BlockKind::kPoint}), radius_(radius) {}
+  template <typename T>
+  void Compute(std::span<const BlockState<T>> x, T* r) const {
+    r[0] = x[0].t.norm() - T(radius_);
+  }
+  std::string Describe(std::span<const std::string> names) const override {
+    return "|" + names[0] + "| == radius";
+  }
+
+ private:
+  double radius_;
+};
+
+TEST_CASE("estimator: a one-row constraint is met exactly, then redundant, then contradicted",
+          "[kernel]") {
+  GaussianState state = PointPrior(Eigen::Vector3d(1, 2, 2), 0.5);
+  const Factor constraint{std::make_shared<RadiusResidual>(2.5), {0}, {}, "radius"};
+  const FusionSummary fused = Fuse(constraint, &state);
+  CHECK(fused.status == FusionSummary::Status::kFused);
+  CHECK(fused.rows_fused == 1);
+  CHECK(std::abs(state.mean.points[0].norm() - 2.5) < 1e-10);
+  // Known to zero variance along the radius only: the sphere's two tangent directions keep theirs.
+  const Eigen::Vector3d radial = state.mean.points[0].normalized();
+  CHECK(radial.dot(state.covariance * radial) < 1e-12);
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(state.covariance);
+  CHECK(eigen.eigenvalues()(1) == Approx(0.25).epsilon(0.05));
+  CHECK(eigen.eigenvalues()(2) == Approx(0.25).epsilon(0.05));
+  const GaussianState before = state;
+  CHECK(Fuse(constraint, &state).status == FusionSummary::Status::kRedundant);
+  CHECK(state.mean.points[0] == before.mean.points[0]);
+  // Another radius for a radius known exactly: a contradiction, the state unchanged. With the
+  // radial direction still uncertain it would be fused instead.
+  const Factor other{std::make_shared<RadiusResidual>(2.6), {0}, {}, "other radius"};
+  const FusionSummary s = Fuse(other, &state);
+  CHECK(s.status == FusionSummary::Status::kContradiction);
+  CHECK(s.contradiction > 1e-3);
   CHECK(state.mean.points[0] == before.mean.points[0]);
   CHECK(state.covariance == before.covariance);
 }
