@@ -2,7 +2,7 @@
 // 5 (docs/benchmarks.md).
 //
 //   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods
-//   fusion,filter,parametric,components,ceres,sparse]
+//   fusion,unreduced,filter,parametric,components,ceres,sparse]
 //
 // For every MODEL (a URDF or a model file) it writes a model that includes it and fixes three
 // markers on every component (a triangle 6-8 cm across about the component's frame, as a
@@ -10,9 +10,12 @@
 // 100, 101, ...: joint variables uniform over the middle 80 % of their limits, a random base
 // pose, the markers measured in 3D with that noise), and solves each with
 //   - fusion: constraint fusion (cfuse/interp/solve.h), every joint a constraint: solve's
-//     sparse path first, the filter where it does not answer; from
+//     batch paths first (the joints eliminated below SolveOptions::reduced_below parameters,
+//     else the sparse solver), the filter where they do not answer; from
 //     SolveOptions::full_covariance_below state dimensions on, the covariance has no entries
 //     between joints, and the NEES (marked ‡) is then each joint's alone, summed;
+//   - unreduced: the same with no joint eliminated (SolveOptions::reduced_below 0): the sparse
+//     solver, then the filter;
 //   - filter: the same with the sequential filter alone (SolveOptions::sparse_from_dim INT_MAX),
 //     as `solve` ran before the sparse path;
 //   - parametric: Lowe's estimator on root poses and joint variables (cfuse/interp/parametric.h);
@@ -246,15 +249,16 @@ int Run(int argc, char** argv) {
   int first = 0;
   app.add_option("--first", first, "first trial (seed 100 + first)");
   app.add_option("--methods", methods,
-                 "fusion, filter, parametric, components, ceres (where Ceres was found at build "
-                 "time), sparse");
+                 "fusion, unreduced, filter, parametric, components, ceres (where Ceres was found "
+                 "at build time), sparse");
   app.add_flag("--verbose", verbose, "list the trials that did not converge");
   CLI11_PARSE(app, argc, argv);
   for (const std::string& m : Split(methods)) {
 #ifdef CFUSE_HAVE_CERES
     if (m == "ceres") continue;
 #endif
-    if (m != "fusion" && m != "filter" && m != "parametric" && m != "components" && m != "sparse") {
+    if (m != "fusion" && m != "unreduced" && m != "filter" && m != "parametric" &&
+        m != "components" && m != "sparse") {
       throw std::invalid_argument("unknown method '" + m + "'");
     }
   }
@@ -334,8 +338,9 @@ int Run(int argc, char** argv) {
             with_covariance = false;
           } else {
             SolveOptions options;
-            options.use_constraints_between_components = method == "fusion" || method == "filter";
+            options.use_constraints_between_components = method != "components";
             if (method == "filter") options.sparse_from_dim = std::numeric_limits<int>::max();
+            if (method == "unreduced") options.reduced_below = 0;
             Solution s = Solve(g, sim.measurements, options);
             converged = s.summary.converged;
             estimate = std::move(s.state);

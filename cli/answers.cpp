@@ -142,7 +142,9 @@ SolveAnswer SolveAndJudge(const ConstraintGraph& graph, const MeasurementSet& se
   answer.result = SolutionJson(graph, set, solution, MsSince(start));
   answer.result["status"]["method"] = method;
   if (method != "parametric") {
-    answer.result["status"]["estimator"] = solution.sparse ? "sparse" : "filter";
+    answer.result["status"]["estimator"] = solution.estimator == Estimator::kReduced  ? "reduced"
+                                           : solution.estimator == Estimator::kSparse ? "sparse"
+                                                                                      : "filter";
   }
   if (residual_variance) {
     answer.result["status"]["residual_variance"] =

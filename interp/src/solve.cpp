@@ -21,6 +21,7 @@
 #include "cfuse/kernel/measurements/point3.h"
 #include "cfuse/kernel/measurements/stacked.h"
 #include "cfuse/kernel/sparse_solver.h"
+#include "reduced_solver.h"
 #include "solve_internal.h"
 
 namespace cfuse {
@@ -255,6 +256,50 @@ void StoreReported(const ConstraintGraph& graph, const SparseEstimate& estimate,
   for (const auto& [a, b] : pairs) put(a, b);
 }
 
+// Whether a batch solver's answer is one the filter would give: converged with every
+// constraint within tolerance, no inequality on its boundary as FuseSequence judges it (λ²
+// within a hundred constraint tolerances: the filter's active-set test decides those), and a
+// fit the solution accepts (`fit`).
+bool Acceptable(const ConstraintGraph& graph, const std::vector<Factor>& factors, bool converged,
+                double max_constraint_residual, const Values& mean, const SequenceOptions& sequence,
+                const SolveOptions& options, double extent, Fit* fit) {
+  if (!converged || !(max_constraint_residual <= sequence.constraint_tolerance)) return false;
+  constexpr double kBoundary = 100;
+  for (const Constraint& c : graph.constraints) {
+    if (c.slack_block < 0) continue;
+    const double lambda = mean.slacks[graph.blocks[c.slack_block].index];
+    if (lambda * lambda <= kBoundary * sequence.constraint_tolerance) return false;
+  }
+  *fit = AnalyseFit(factors, graph.blocks, mean, extent, false).fit;
+  return fit->p_value >= options.min_p_value;
+}
+
+// The pairs of blocks whose covariance results report besides each block's own: each joint's
+// parent and child (the joint's variance).
+std::vector<std::pair<int, int>> JointPairs(const ConstraintGraph& graph) {
+  std::vector<std::pair<int, int>> pairs;
+  for (const Joint& j : graph.joints) {
+    if (j.parent >= 0 && j.child >= 0) {
+      pairs.emplace_back(graph.components[j.parent].block, graph.components[j.child].block);
+    }
+  }
+  return pairs;
+}
+
+// A batch solver's answer as the filter's summary: converged, every factor fused whole.
+void BatchSummary(const std::vector<Factor>& factors, int iterations,
+                  double max_constraint_residual, SequenceSummary* summary) {
+  *summary = SequenceSummary{};
+  summary->passes = iterations;
+  summary->converged = true;
+  summary->max_constraint_residual = max_constraint_residual;
+  for (const Factor& f : factors) {
+    FusionSummary fused;
+    fused.rows = fused.rows_fused = f.residual->dimension();
+    summary->fusions.push_back(fused);
+  }
+}
+
 // The sparse solver's answer (sparse_solver.h) as a Solution's state and summary, when it is
 // one the filter would give: converged, every constraint within tolerance, no inequality on
 // its boundary (the filter's active-set test decides those), and a fit the solution accepts.
@@ -270,29 +315,16 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
   SparseOptions sparse;
   sparse.constraint_tolerance = sequence.constraint_tolerance;
   sparse.full_covariance = graph.tangent_dim() < options.full_covariance_below;
-  std::vector<std::pair<int, int>> pairs;
-  for (const Joint& j : graph.joints) {
-    if (!sparse.full_covariance && j.parent >= 0 && j.child >= 0) {
-      pairs.emplace_back(graph.components[j.parent].block, graph.components[j.child].block);
-    }
-  }
+  const std::vector<std::pair<int, int>> pairs =
+      sparse.full_covariance ? std::vector<std::pair<int, int>>{} : JointPairs(graph);
   SparseEstimate estimate;
   const SparseSummary s =
       SolveSparse(factors, graph.blocks, initial, PriorVariance(graph.blocks, scale), pairs,
                   &estimate, sparse, &initial);
-  if (!s.factorized || !s.converged ||
-      !(s.max_constraint_residual <= sequence.constraint_tolerance)) {
+  if (!Acceptable(graph, factors, s.factorized && s.converged, s.max_constraint_residual,
+                  estimate.mean, sequence, options, solution->extent, fit)) {
     return false;
   }
-  // On its boundary as FuseSequence judges it: λ² within a hundred constraint tolerances.
-  constexpr double kBoundary = 100;
-  for (const Constraint& c : graph.constraints) {
-    if (c.slack_block < 0) continue;
-    const double lambda = estimate.mean.slacks[graph.blocks[c.slack_block].index];
-    if (lambda * lambda <= kBoundary * sequence.constraint_tolerance) return false;
-  }
-  *fit = AnalyseFit(factors, graph.blocks, estimate.mean, solution->extent, false).fit;
-  if (fit->p_value < options.min_p_value) return false;
   GaussianState& state = solution->state;
   state.mean = std::move(estimate.mean);
   if (sparse.full_covariance) {
@@ -300,15 +332,35 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
   } else {
     StoreReported(graph, estimate, pairs, &state);
   }
-  solution->summary = SequenceSummary{};
-  solution->summary.passes = s.iterations;
-  solution->summary.converged = true;
-  solution->summary.max_constraint_residual = s.max_constraint_residual;
-  for (const Factor& f : factors) {
-    FusionSummary fused;
-    fused.rows = fused.rows_fused = f.residual->dimension();
-    solution->summary.fusions.push_back(fused);
+  BatchSummary(factors, s.iterations, s.max_constraint_residual, &solution->summary);
+  return true;
+}
+
+// The same with the forest's joints eliminated (reduced_solver.h), on the same conditions,
+// for a model with joints and fewer than SolveOptions::reduced_below parameters.
+bool SolveReducedFirst(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                       const Values& initial, const PriorScale& scale,
+                       const SequenceOptions& sequence, const SolveOptions& options,
+                       Solution* solution, Fit* fit) {
+  if (internal::ReducedParameters(graph) >= options.reduced_below ||
+      !internal::ReducedUnsupported(graph, factors).empty()) {
+    return false;
   }
+  internal::ReducedOptions reduced;
+  reduced.constraint_tolerance = sequence.constraint_tolerance;
+  internal::ReducedEstimate estimate;
+  const std::vector<std::pair<int, int>> pairs = JointPairs(graph);
+  const internal::ReducedSummary s = internal::SolveReduced(
+      graph, factors, initial, PriorVariance(graph.blocks, scale), &estimate, reduced, &initial,
+      graph.tangent_dim() < options.full_covariance_below ? nullptr : &pairs);
+  if (!Acceptable(graph, factors, s.factorized && s.converged, s.max_constraint_residual,
+                  estimate.mean, sequence, options, solution->extent, fit)) {
+    return false;
+  }
+  GaussianState& state = solution->state;
+  state.mean = std::move(estimate.mean);
+  state.covariance = std::move(estimate.covariance);
+  BatchSummary(factors, s.iterations, s.max_constraint_residual, &solution->summary);
   return true;
 }
 
@@ -362,10 +414,16 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   // plate 135 mm off, NEES 62 under the covariance that held the boundary, 54 without it).
   sequence.boundary_free_covariance = true;
   Fit fit;
-  const bool sparse =
-      !pinned && graph.tangent_dim() >= options.sparse_from_dim &&
-      SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution, &fit);
-  solution->sparse = sparse;
+  const bool batch = !pinned && graph.tangent_dim() >= options.sparse_from_dim;
+  solution->estimator = Estimator::kFilter;
+  if (batch &&
+      SolveReducedFirst(graph, factors, initial, scale, sequence, options, solution, &fit)) {
+    solution->estimator = Estimator::kReduced;
+  } else if (batch &&
+             SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution, &fit)) {
+    solution->estimator = Estimator::kSparse;
+  }
+  const bool sparse = solution->estimator != Estimator::kFilter;
   if (!sparse) solution->summary = FuseSequence(factors, &solution->state, sequence);
   // A converged estimate that the measurements do not fit is a local minimum as surely as an
   // unconverged one is a failure: both get the other starts, and the better fit is kept.

@@ -10,41 +10,11 @@
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/kernel/batch_solver.h"
 #include "cfuse/kernel/estimator.h"
-#include "cfuse/kernel/measurements/point3.h"
+#include "measured_model.h"
 #include "test_util.h"
 
 namespace cfuse {
 namespace {
-
-// Every feature point of every component measured at `world_from_model` times its nominal
-// place, 1 mm noise; then every constraint. `truth` gets the nominal values moved.
-std::vector<Factor> Measured(const ConstraintGraph& g, const Rigid3d& world_from_model,
-                             std::mt19937& rng, Values* truth) {
-  std::normal_distribution<double> n(0, 0.001);
-  const Eigen::Matrix3d noise = 1e-6 * Eigen::Matrix3d::Identity();
-  *truth = g.nominal;
-  for (Rigid3d& pose : truth->poses) pose = world_from_model * pose;
-  for (Eigen::Vector3d& p : truth->points) p = world_from_model * p;
-  std::vector<Factor> factors;
-  for (const Component& c : g.components) {
-    const Block& b = g.blocks[c.block];
-    const auto e = [&] { return Eigen::Vector3d(n(rng), n(rng), n(rng)); };
-    if (!c.rigid) {
-      factors.push_back({std::make_shared<Point3Residual>(truth->points[b.index] + e()),
-                         {c.block},
-                         noise,
-                         c.name});
-      continue;
-    }
-    for (const FeaturePoint& f : c.points) {
-      const Eigen::Vector3d z = truth->poses[b.index] * f.position + e();
-      factors.push_back(
-          {std::make_shared<Point3Residual>(f.position, z), {c.block}, noise, c.name});
-    }
-  }
-  for (const Constraint& c : g.constraints) factors.push_back({c.residual, c.blocks, {}, c.name});
-  return factors;
-}
 
 std::vector<std::pair<int, int>> AllPairs(int blocks) {
   std::vector<std::pair<int, int>> pairs;
@@ -130,7 +100,7 @@ TEST_CASE("sparse solver: the batch solver's answer and covariance on the exampl
     const ConstraintGraph g = LoadModel(testing::SourcePath(file));
     INFO(file);
     Values truth;
-    const std::vector<Factor> factors = Measured(g, motion, rng, &truth);
+    const std::vector<Factor> factors = testing::MeasureEveryPoint(g, motion, rng, &truth);
     CheckAgainstBatch(g, factors, truth);
   }
 }
@@ -144,7 +114,7 @@ TEST_CASE("sparse solver: settled as the filter is, at the filter's answer", "[k
   const Rigid3d motion(Eigen::Quaterniond(Eigen::AngleAxisd(0.4, Eigen::Vector3d::UnitZ())),
                        Eigen::Vector3d(0.2, -0.1, 1.4));
   Values truth;
-  const std::vector<Factor> factors = Measured(g, motion, rng, &truth);
+  const std::vector<Factor> factors = testing::MeasureEveryPoint(g, motion, rng, &truth);
   SparseEstimate sparse;
   const SparseSummary s = SolveSparse(
       factors, g.blocks, g.nominal, PriorVariance(g.blocks, PriorScale{}), {}, &sparse, {}, &truth);

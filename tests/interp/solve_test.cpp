@@ -403,9 +403,10 @@ std::pair<double, double> ChiSquare99(double k) {
   return {k * std::pow(1 - a - z * std::sqrt(a), 3), k * std::pow(1 - a + z * std::sqrt(a), 3)};
 }
 
-// The sparse path (SolveOptions::sparse_from_dim) on cabinets with both joints well inside
-// their limits: the filter's answer, within a fifth of a standard deviation (both stop once a
-// step is below a tenth of one); its covariance whole, every entry as the filter's. From
+// The batch paths (SolveOptions::sparse_from_dim; the joints eliminated below
+// SolveOptions::reduced_below, the sparse solver above) on cabinets with both joints well
+// inside their limits: the filter's answer, within a fifth of a standard deviation (both stop once
+// a step is below a tenth of one); its covariance whole, every entry as the filter's. From
 // SolveOptions::full_covariance_below on, each component's covariance and each joint's variance
 // as before, the covariance between blocks no joint joins not computed (NaN). An elbow held on
 // its limit goes to the filter, which decides whether the limit holds (every entry computed).
@@ -414,18 +415,22 @@ TEST_CASE("solve: the sparse path gives the filter's answer and the variances re
   const ConstraintGraph g = LoadModel(testing::SourcePath("examples/cabinet.yaml"));
   SolveOptions sparse, reported, filter;
   reported.full_covariance_below = 0;
+  // ... and the same reported by the sparse solver, the joints not eliminated.
+  SolveOptions reported_sparse = reported;
+  reported_sparse.reduced_below = 0;
   filter.sparse_from_dim = std::numeric_limits<int>::max();
   const int drawer = g.components[g.FindComponent("drawer")].block;
   const int door = g.components[g.FindComponent("door")].block;
   int used = 0;
-  for (int seed = 0; seed < 10; ++seed) {
+  for (int seed = 0; seed < 20; ++seed) {
+    const bool eliminated = seed < 10;
     SimulateOptions so;
-    so.seed = seed;
+    so.seed = seed % 10;
     so.labels = true;
     so.sample_joints = true;
     const Simulation sim = Simulate(g, so);
     const Solution a = Solve(g, sim.measurements, sparse);
-    const Solution c = Solve(g, sim.measurements, reported);
+    const Solution c = Solve(g, sim.measurements, eliminated ? reported : reported_sparse);
     const Solution b = Solve(g, sim.measurements, filter);
     INFO("seed " << seed);
     REQUIRE(a.accepted());
@@ -462,10 +467,12 @@ TEST_CASE("solve: the sparse path gives the filter's answer and the variances re
       CHECK(std::abs(qa.covariance(k, k) - qb.covariance(k, k)) <= 0.01 * qb.covariance(k, k));
       CHECK(std::abs(qc.covariance(k, k) - qb.covariance(k, k)) <= 0.01 * qb.covariance(k, k));
     }
-    CHECK_FALSE(b.sparse);
-    CHECK(a.sparse == c.sparse);
-    CHECK(c.sparse == !c.state.covariance.allFinite());
-    if (!a.sparse) continue;  // the filter's: a slack on its boundary
+    CHECK(b.estimator == Estimator::kFilter);
+    CHECK((a.estimator == Estimator::kFilter) == (c.estimator == Estimator::kFilter));
+    CHECK((c.estimator != Estimator::kFilter) == !c.state.covariance.allFinite());
+    if (a.estimator == Estimator::kFilter) continue;  // the filter's: a slack on its boundary
+    CHECK(a.estimator == Estimator::kReduced);        // the joints eliminated
+    CHECK(c.estimator == (eliminated ? Estimator::kReduced : Estimator::kSparse));
     ++used;
     const Block& bd = g.blocks[drawer];
     const Block& bo = g.blocks[door];
@@ -473,7 +480,7 @@ TEST_CASE("solve: the sparse path gives the filter's answer and the variances re
     CHECK(std::isnan(c.state.covariance(bd.tangent_offset, bo.tangent_offset)));
     CHECK(std::isfinite(a.state.covariance(bd.tangent_offset, bo.tangent_offset)));
   }
-  CHECK(used >= 8);
+  CHECK(used >= 16);
 
   // An elbow 1 degree beyond its lower limit: held on the limit, so the filter solved it.
   const ConstraintGraph elbow = LoadModelFromString(kElbow, "elbow.yaml", ".");
@@ -482,7 +489,7 @@ TEST_CASE("solve: the sparse path gives the filter's answer and the variances re
   const MeasurementSet set = Measure3d(elbow, truth, rng, 0.002);
   const Solution on = Solve(elbow, set, sparse), reference = Solve(elbow, set, filter);
   REQUIRE(on.accepted());
-  CHECK_FALSE(on.sparse);
+  CHECK(on.estimator == Estimator::kFilter);
   CHECK(on.state.covariance.allFinite());
   CHECK(LocalCoordinates(elbow.blocks, reference.state.mean, on.state.mean)
             .lpNorm<Eigen::Infinity>() == 0);

@@ -19,9 +19,10 @@
 //     small), fused by FuseSequence (cfuse/kernel/estimator.h) until every
 //     constraint holds to 1e-8 x the model's extent. (Gauss-Newton passes reach about 1e-9 x
 //     the extent before roundoff dominates when points are occluded: the vague prior then
-//     leaves the covariance ill-conditioned.) The model is solved first by the sparse solver
-//     (SolveOptions::sparse_from_dim), every factor at once, and the filter runs only when
-//     that answer is not one it would give (an inequality on its boundary, no convergence).
+//     leaves the covariance ill-conditioned.) The model is solved first in batch, every
+//     factor at once: with its joints eliminated (SolveOptions::reduced_below) or by the
+//     sparse solver (SolveOptions::sparse_from_dim); the filter runs only when that answer is
+//     not one it would give (an inequality on its boundary, no convergence).
 #pragma once
 
 #include <optional>
@@ -80,6 +81,20 @@ struct SolveOptions {
   // other blocks are NaN, not computed, since they would cost more than the solve itself.
   // (Measured: docs/benchmarks.md, "Scale".)
   int full_covariance_below = 200;
+  // A model with joints is tried first with the joints of its kinematic forest eliminated
+  // (interp/src/reduced_solver.h) when that leaves fewer than this many parameters (root
+  // poses and joint variables): the sparse solver's answer at about the parametric
+  // form's cost, kept on the same conditions. Dense in those parameters: a humanoid's 57 are
+  // solved faster so than by the sparse solver, two humanoids' 114 slower (docs/benchmarks.md,
+  // "Scale"). 0: never.
+  int reduced_below = 100;
+};
+
+// Which estimator answered a labelled solve.
+enum class Estimator {
+  kFilter,   // the sequential filter (estimator.h)
+  kSparse,   // the sparse solver (cfuse/kernel/sparse_solver.h)
+  kReduced,  // the sparse solver's problem with the forest's joints eliminated
 };
 
 // A labelled measurement resolved to its model point.
@@ -127,10 +142,11 @@ struct Solution {
     double towards_mirror = 0, away = 0;  // radians of tilt inside the interval, 0: Gaussian
   };
   std::vector<Valley> valleys;
-  // Solved by the sparse solver (SolveOptions::sparse_from_dim). From
-  // SolveOptions::full_covariance_below dimensions on, the covariance then holds each
-  // component's block and each joint's pair of components only, NaN elsewhere.
-  bool sparse = false;
+  // Solved by the filter, the sparse solver (SolveOptions::sparse_from_dim) or the reduced one
+  // (SolveOptions::reduced_below). From SolveOptions::full_covariance_below dimensions on, the
+  // sparse solver's covariance holds each component's block and each joint's pair of
+  // components only, NaN elsewhere.
+  Estimator estimator = Estimator::kFilter;
 
   // Every constraint holds, nothing was contradictory or not finite, and the data fit.
   bool accepted() const {

@@ -96,6 +96,17 @@ class JointLimitResidual : public AutoDiffResidual<JointLimitResidual> {
     r[0] = RangeSlackResidual(Centered(x), 0.0, half_, x[2].slack());
   }
 
+  // The same residual from the joint variable q itself, for a solver that carries it (interp's
+  // reduced solver): where the joint holds, Centered is q - mid, an angle wrapped as
+  // RevoluteAngle wraps it.
+  template <typename T>
+  T AtValue(const T& q, const T& slack) const {
+    using std::atan2, std::cos, std::sin;
+    const T centred = q - T(mid_);
+    return RangeSlackResidual(prismatic_ ? centred : T(atan2(sin(centred), cos(centred))), 0.0,
+                              half_, slack);
+  }
+
   std::string Describe(std::span<const std::string> names) const override {
     const Quantity q = prismatic_ ? Quantity::Length() : Quantity::Angle();
     return fmt::format("joint {} -> {} in [{}, {}]", names[0], names[1],

@@ -1,0 +1,447 @@
+#include "reduced_solver.h"
+
+#include <Eigen/Cholesky>
+#include <Eigen/Geometry>
+#include <algorithm>
+#include <cmath>
+
+#include "cfuse/constraints/kinds/joint_residual.h"
+#include "cfuse/kernel/check.h"
+#include "cfuse/kernel/evaluate.h"
+#include "cfuse/kernel/jet.h"
+#include "cfuse/kernel/so3.h"
+#include "kinematic_forest.h"
+
+namespace cfuse::internal {
+namespace {
+
+using Matrix6 = Eigen::Matrix<double, 6, 6>;
+using Vector6 = Eigen::Matrix<double, 6, 1>;
+
+// The forest and the parameters each pose depends on: what stays fixed over a solve.
+struct Reduction {
+  Forest forest;
+  std::vector<std::vector<Influence>> influence;
+  // Per block: the parameters its tangent coordinates depend on, ascending (a slack's: those
+  // of its inequality's other blocks, filled per solve).
+  std::vector<std::vector<int>> block_parameters;
+};
+
+// Why the graph's joints cannot be eliminated, or "" (and the reduction in `out`, if given).
+std::string Reduce(const ConstraintGraph& graph, Reduction* out) {
+  Reduction r;
+  if (graph.joints.empty()) return "the model has no joints";
+  if (std::string why = BuildForest(graph, ForestRules::kJointsFirst, &r.forest); !why.empty()) {
+    return why;
+  }
+  for (const Block& b : graph.blocks) {
+    if (b.kind == BlockKind::kPoint) return "a point block outside the components";
+  }
+  if (!out) return "";
+  LayoutParameters(graph, 1.0, 1.0, &r.forest);  // its priors are not used: the poses' are
+  r.influence = Influences(graph, r.forest);
+  r.block_parameters.resize(graph.blocks.size());
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    std::vector<int>& p = r.block_parameters[graph.components[c].block];
+    for (const Influence& in : r.influence[c]) p.push_back(in.parameter);
+    std::sort(p.begin(), p.end());
+    p.erase(std::unique(p.begin(), p.end()), p.end());
+  }
+  *out = std::move(r);
+  return "";
+}
+
+// Per factor: how it enters the reduced problem.
+struct FactorMap {
+  bool held = false;  // a constraint the forest holds by construction
+  // An inequality's one row with its slack λ, eliminated together: the row's slot of λ, or
+  // -1. Linearised, c + a Δz + a_λ Δλ = 0 gives Δλ = -(c + a Δz) / a_λ, and λ's prior
+  // becomes a measurement of z; the last linearisation is kept for the step and for λ's
+  // covariance.
+  int slack_slot = -1;
+  double c = 0, a_lambda = 0;
+  Eigen::RowVectorXd a;
+  // A forest joint's limit, read at the joint variable (JointLimitResidual::AtValue) rather
+  // than differentiated through both poses: its joint, or -1.
+  int limit_joint = -1;
+  const JointLimitResidual* limit = nullptr;
+  std::vector<int> parameters;  // those its blocks (but an eliminated slack) depend on
+  std::vector<int> first_column;
+  Eigen::MatrixXd whiten;  // measurements: Lw⁻¹, R = Lw Lwᵀ
+  bool whitened = true;    // false: R not positive definite
+};
+
+// dx/dz over the factor's pose blocks: rows its Jacobian's columns, columns its parameters.
+void FactorTangent(const ConstraintGraph& graph, const Factor& factor, const FactorMap& map,
+                   const Eigen::MatrixXd& G, Eigen::MatrixXd* Tf) {
+  Tf->setZero(factor.residual->arity(), static_cast<Eigen::Index>(map.parameters.size()));
+  for (size_t s = 0; s < factor.blocks.size(); ++s) {
+    const Block& b = graph.blocks[factor.blocks[s]];
+    if (b.kind != BlockKind::kPose) continue;
+    for (size_t k = 0; k < map.parameters.size(); ++k) {
+      Tf->block<6, 1>(map.first_column[s], static_cast<Eigen::Index>(k)) =
+          G.block<6, 1>(b.tangent_offset, map.parameters[k]);
+    }
+  }
+}
+
+// H(p, p) += Jᵀ J, g(p) += Jᵀ r for the parameters p.
+void Accumulate(const std::vector<int>& p, const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
+                Eigen::MatrixXd* H, Eigen::VectorXd* g) {
+  const Eigen::MatrixXd JtJ = J.transpose() * J;
+  const Eigen::VectorXd Jtr = J.transpose() * r;
+  for (size_t k = 0; k < p.size(); ++k) {
+    (*g)[p[k]] += Jtr[static_cast<Eigen::Index>(k)];
+    for (size_t l = 0; l < p.size(); ++l) {
+      (*H)(p[k], p[l]) += JtJ(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l));
+    }
+  }
+}
+
+Eigen::Vector3d RotationVector(const Eigen::Matrix3d& R) {
+  const Eigen::AngleAxisd aa(R);
+  return aa.angle() * aa.axis();
+}
+
+// Whether `residual` is graph constraint k's.
+bool IsConstraint(const ConstraintGraph& graph, int k, const Factor& f) {
+  return k >= 0 && graph.constraints[k].residual.get() == f.residual.get();
+}
+
+}  // namespace
+
+std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<Factor>& factors) {
+  if (std::string why = Reduce(graph, nullptr); !why.empty()) return why;
+  // Each slack must belong to one inequality of one row, which it is eliminated with.
+  std::vector<int> uses(graph.blocks.size(), 0);
+  for (const Factor& f : factors) {
+    for (int b : f.blocks) {
+      if (b < 0 || b >= static_cast<int>(graph.blocks.size())) return "a factor off the graph";
+      if (graph.blocks[b].kind != BlockKind::kSlack) continue;
+      if (!f.is_constraint() || f.residual->dimension() != 1 || ++uses[b] > 1) {
+        return "a slack outside a single one-row inequality";
+      }
+    }
+  }
+  return "";
+}
+
+int ReducedParameters(const ConstraintGraph& graph) {
+  Reduction r;
+  return Reduce(graph, &r).empty() ? r.forest.size : 0;
+}
+
+ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                            const Values& prior_mean, const Eigen::VectorXd& prior_variance,
+                            ReducedEstimate* estimate, const ReducedOptions& options,
+                            const Values* initial, const std::vector<std::pair<int, int>>* pairs) {
+  CFUSE_CHECK_MSG(ReducedUnsupported(graph, factors).empty(), ReducedUnsupported(graph, factors));
+  Reduction red;
+  Reduce(graph, &red);
+  const Forest& forest = red.forest;
+  const int nz = forest.size;
+  const int n = graph.tangent_dim();
+  CFUSE_CHECK_EQ(prior_variance.size(), n);
+  ReducedSummary summary;
+  summary.parameters = nz;
+
+  std::vector<FactorMap> maps(factors.size());
+  int m = 0;  // constraint rows kept as rows
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const Factor& f = factors[i];
+    FactorMap& map = maps[i];
+    int column = 0;
+    for (size_t s = 0; s < f.blocks.size(); ++s) {
+      const Block& b = graph.blocks[f.blocks[s]];
+      map.first_column.push_back(column);
+      column += TangentDim(b.kind);
+      if (b.kind == BlockKind::kSlack) map.slack_slot = static_cast<int>(s);
+      map.parameters.insert(map.parameters.end(), red.block_parameters[f.blocks[s]].begin(),
+                            red.block_parameters[f.blocks[s]].end());
+    }
+    std::sort(map.parameters.begin(), map.parameters.end());
+    map.parameters.erase(std::unique(map.parameters.begin(), map.parameters.end()),
+                         map.parameters.end());
+    if (!f.is_constraint()) {
+      const Eigen::LLT<Eigen::MatrixXd> llt(f.noise);
+      map.whitened = llt.info() == Eigen::Success;
+      if (map.whitened) {
+        map.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(f.noise.rows(), f.noise.rows()));
+      }
+      continue;
+    }
+    for (size_t k = 0; k < graph.constraints.size(); ++k) {
+      if (forest.held[k] && IsConstraint(graph, static_cast<int>(k), f)) map.held = true;
+    }
+    for (size_t j = 0; j < graph.joints.size(); ++j) {
+      const int leader_parameter = forest.joint_parameter[forest.leader[j]];
+      if (!IsConstraint(graph, graph.joints[j].limit_constraint, f) || leader_parameter < 0) {
+        continue;
+      }
+      map.limit = dynamic_cast<const JointLimitResidual*>(f.residual.get());
+      if (map.limit) {
+        map.limit_joint = static_cast<int>(j);
+        map.parameters = {leader_parameter};
+      }
+    }
+    if (map.slack_slot >= 0) {
+      red.block_parameters[f.blocks[map.slack_slot]] = map.parameters;
+      ++summary.eliminated_slacks;
+    } else if (!map.held) {
+      m += f.residual->dimension();
+    }
+  }
+  summary.constraint_rows = m;
+
+  const Values& start = initial ? *initial : prior_mean;
+  Configuration x = FromPoses(graph, forest, start);
+  Values values = prior_mean;
+  values.slacks = start.slacks;
+  Eigen::MatrixXd G;
+  ComponentPoses(graph, forest, red.influence, x, &values, &G);
+  const auto constraints_hold = [&] {
+    Eigen::VectorXd r;
+    for (size_t i = 0; i < factors.size(); ++i) {
+      if (!factors[i].is_constraint() || maps[i].held) continue;
+      EvaluateResidual(*factors[i].residual, graph.blocks, factors[i].blocks, values, &r, nullptr);
+      if (!(r.lpNorm<Eigen::Infinity>() <= options.constraint_tolerance)) return false;
+    }
+    return true;
+  };
+
+  Eigen::MatrixXd H(nz, nz), C(m, nz), Tf, J, Jw, Tb, Hb, Linv, LinvYt;
+  Eigen::VectorXd g(nz), c(m), r, gb;
+  std::vector<Matrix6> information(graph.blocks.size());
+  std::vector<Vector6> gradient(graph.blocks.size());
+  bool factored = false;  // Linv and LinvYt hold the last iteration's
+  for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
+    H.setZero();
+    g.setZero();
+    // Each pose's information and gradient in its own tangent first, from its prior and the
+    // measurements on it alone (6 x 6, whatever the parameters), then moved onto the
+    // parameters that move it once. The prior is in the chart at the prior mean:
+    // δ = (Log(R0ᵀ R), t - t0), whose derivative in the chart at R is Jr(δθ)⁻¹ on the rotation.
+    for (size_t b = 0; b < graph.blocks.size(); ++b) {
+      const Block& block = graph.blocks[b];
+      if (block.kind != BlockKind::kPose) continue;
+      const Rigid3d& pose = values.poses[block.index];
+      const Rigid3d& pose0 = prior_mean.poses[block.index];
+      Vector6 delta;
+      delta.head<3>() = RotationVector(pose0.RotationMatrix().transpose() * pose.RotationMatrix());
+      delta.tail<3>() = pose.translation - pose0.translation;
+      Matrix6 D = Matrix6::Identity();
+      D.topLeftCorner<3, 3>() = RightJacobianSO3(delta.head<3>()).inverse();
+      const Vector6 w = prior_variance.segment<6>(block.tangent_offset).cwiseInverse();
+      information[b].noalias() = D.transpose() * w.asDiagonal() * D;
+      gradient[b].noalias() = D.transpose() * w.cwiseProduct(delta);
+    }
+    int row = 0;
+    bool finite = true;
+    for (size_t i = 0; i < factors.size() && finite; ++i) {
+      const Factor& f = factors[i];
+      FactorMap& map = maps[i];
+      if (map.held) continue;
+      if (map.limit_joint >= 0) {
+        const int j = map.limit_joint;
+        const double q = forest.multiplier[j] * x.q[forest.leader[j]] + forest.offset[j];
+        const double slack = values.slacks[graph.blocks[f.blocks[map.slack_slot]].index];
+        const Jet v = map.limit->AtValue(Jet(q, JetDerivatives::Unit(0)),
+                                         Jet(slack, JetDerivatives::Unit(1)));
+        map.c = v.value();
+        map.a.resize(1);
+        map.a[0] = v.derivatives()[0] * forest.multiplier[j];
+        map.a_lambda = v.derivatives()[1];
+      } else {
+        EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, &J);
+        finite = r.allFinite() && J.allFinite() && map.whitened;
+        FactorTangent(graph, f, map, G, &Tf);
+        if (!f.is_constraint() && f.blocks.size() == 1) {
+          Jw.noalias() = map.whiten * J;
+          information[f.blocks[0]].noalias() += Jw.transpose() * Jw;
+          gradient[f.blocks[0]].noalias() += Jw.transpose() * (map.whiten * r);
+          continue;
+        }
+        const Eigen::MatrixXd Jz = J * Tf;
+        if (!f.is_constraint()) {
+          Accumulate(map.parameters, map.whiten * Jz, map.whiten * r, &H, &g);
+          continue;
+        }
+        if (map.slack_slot < 0) {
+          C.middleRows(row, r.size()).setZero();
+          for (size_t k = 0; k < map.parameters.size(); ++k) {
+            C.block(row, map.parameters[k], r.size(), 1) = Jz.col(static_cast<Eigen::Index>(k));
+          }
+          c.segment(row, r.size()) = r;
+          row += static_cast<int>(r.size());
+          continue;
+        }
+        map.c = r[0];
+        map.a = Jz.row(0);
+        map.a_lambda = J(0, map.first_column[map.slack_slot]);
+      }
+      // The slack eliminated with its row: λ's prior, w (λ + Δλ - λ0)², is a measurement of z.
+      // A vanishing a_λ is λ on the boundary, which the filter decides.
+      const Block& slack_block = graph.blocks[f.blocks[map.slack_slot]];
+      finite =
+          finite && std::isfinite(map.c) && map.a.allFinite() && std::abs(map.a_lambda) > 1e-12;
+      if (!finite) break;
+      const double s = 1 / std::sqrt(prior_variance[slack_block.tangent_offset]);
+      const double lambda = values.slacks[slack_block.index];
+      const double lambda0 = prior_mean.slacks[slack_block.index];
+      Accumulate(map.parameters, (-s / map.a_lambda) * map.a,
+                 Eigen::VectorXd::Constant(1, s * (lambda - lambda0 - map.c / map.a_lambda)), &H,
+                 &g);
+    }
+    if (finite) {
+      for (size_t b = 0; b < graph.blocks.size(); ++b) {
+        if (graph.blocks[b].kind != BlockKind::kPose) continue;
+        const std::vector<int>& p = red.block_parameters[b];
+        const int o = graph.blocks[b].tangent_offset;
+        Tb.resize(6, static_cast<Eigen::Index>(p.size()));
+        for (size_t k = 0; k < p.size(); ++k) {
+          Tb.col(static_cast<Eigen::Index>(k)) = G.block<6, 1>(o, p[k]);
+        }
+        Hb.noalias() = Tb.transpose() * information[b] * Tb;
+        gb.noalias() = Tb.transpose() * gradient[b];
+        for (size_t k = 0; k < p.size(); ++k) {
+          g[p[k]] += gb[static_cast<Eigen::Index>(k)];
+          for (size_t l = 0; l < p.size(); ++l) {
+            H(p[k], p[l]) += Hb(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l));
+          }
+        }
+      }
+    }
+    const Eigen::LLT<Eigen::MatrixXd> llt(H);
+    if (!finite || llt.info() != Eigen::Success) {
+      summary.factorized = false;
+      break;
+    }
+    // The constraint rows by their Schur complement S = C H⁻¹ Cᵀ, each kept when its pivot
+    // is above the dependence tolerance of its own variance.
+    // H⁻¹ = Linvᵀ Linv; L⁻¹'s column k is zero above row k, so each solve starts there.
+    Linv.setZero(nz, nz);
+    const auto L_H = llt.matrixLLT();
+    for (int k = 0; k < nz; ++k) {
+      auto column = Linv.col(k).tail(nz - k);
+      column[0] = 1;
+      L_H.bottomRightCorner(nz - k, nz - k).triangularView<Eigen::Lower>().solveInPlace(column);
+    }
+    const Eigen::MatrixXd Y = llt.solve(C.transpose());
+    const Eigen::MatrixXd S = C * Y;
+    const Eigen::VectorXd free_step = -llt.solve(g);
+    std::vector<int> kept;
+    Eigen::MatrixXd L(m, m);
+    for (int i = 0; i < m; ++i) {
+      const int k = static_cast<int>(kept.size());
+      Eigen::VectorXd l(k);
+      for (int a = 0; a < k; ++a) l[a] = S(kept[a], i);
+      if (k > 0) L.topLeftCorner(k, k).triangularView<Eigen::Lower>().solveInPlace(l);
+      const double pivot = S(i, i) - l.squaredNorm();
+      if (!(pivot > options.dependence_tolerance * S(i, i))) continue;
+      L.block(k, 0, 1, k) = l.transpose();
+      L(k, k) = std::sqrt(pivot);
+      kept.push_back(i);
+    }
+    const int nk = static_cast<int>(kept.size());
+    summary.dependent_rows = m - nk;
+    Eigen::MatrixXd Yk(nz, nk);
+    Eigen::VectorXd ck(nk);
+    for (int a = 0; a < nk; ++a) {
+      Yk.col(a) = Y.col(kept[a]);
+      ck[a] = c[kept[a]] + C.row(kept[a]).dot(free_step);
+    }
+    const auto Lk = L.topLeftCorner(nk, nk).triangularView<Eigen::Lower>();
+    const Eigen::VectorXd mu = Lk.transpose().solve(Lk.solve(ck));
+    const Eigen::VectorXd step = free_step - Yk * mu;
+    // Cov(z) on the constraint surface: H⁻¹ - Y S⁻¹ Yᵀ over the rows kept, = Linvᵀ Linv -
+    // LinvYtᵀ LinvYt; its diagonal for the step test, the whole of it once at the end.
+    LinvYt = Lk.solve(Yk.transpose());
+    const Eigen::VectorXd variance_z =
+        Linv.colwise().squaredNorm().transpose() - LinvYt.colwise().squaredNorm().transpose();
+    factored = true;
+
+    Retract(graph, forest, step, &x);
+    for (size_t i = 0; i < factors.size(); ++i) {
+      const FactorMap& map = maps[i];
+      if (map.held || map.slack_slot < 0) continue;
+      double moved = map.c;
+      for (size_t k = 0; k < map.parameters.size(); ++k) {
+        moved += map.a[static_cast<Eigen::Index>(k)] * step[map.parameters[k]];
+      }
+      values.slacks[graph.blocks[factors[i].blocks[map.slack_slot]].index] -= moved / map.a_lambda;
+    }
+    ComponentPoses(graph, forest, red.influence, x, &values, &G);
+    summary.iterations = iteration + 1;
+    bool settled = options.settled_fraction > 0;
+    for (int k = 0; k < nz && settled; ++k) {
+      const double sigma = std::sqrt(std::max(variance_z[k], 0.0));
+      settled = std::abs(step[k]) <= options.settled_fraction * sigma + 1e-10;
+    }
+    if (step.lpNorm<Eigen::Infinity>() <= options.step_tolerance ||
+        (settled && constraints_hold())) {
+      summary.converged = true;
+      break;
+    }
+  }
+  estimate->mean = values;
+  estimate->covariance.resize(0, 0);
+  if (summary.factorized && factored) {
+    // T = dx/dz at the solution: the poses' rows G, each eliminated slack's -a / a_λ.
+    Eigen::MatrixXd T = Eigen::MatrixXd::Zero(n, nz);
+    T.leftCols(nz) = G;
+    for (size_t i = 0; i < factors.size(); ++i) {
+      const FactorMap& map = maps[i];
+      if (map.held || map.slack_slot < 0) continue;
+      const int o = graph.blocks[factors[i].blocks[map.slack_slot]].tangent_offset;
+      for (size_t k = 0; k < map.parameters.size(); ++k) {
+        T(o, map.parameters[k]) = -map.a[static_cast<Eigen::Index>(k)] / map.a_lambda;
+      }
+    }
+    const Eigen::MatrixXd covariance_z = Linv.transpose() * Linv - LinvYt.transpose() * LinvYt;
+    Eigen::MatrixXd& P = estimate->covariance;
+    if (!pairs) {
+      const Eigen::MatrixXd A = T * covariance_z;
+      P.resize(n, n);
+      P.triangularView<Eigen::Lower>() = A * T.transpose();
+      P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
+    } else {
+      // A block's rows of T are zero outside the parameters that move it.
+      P.setConstant(n, n, NAN);
+      const auto rows_of = [&](int block) {
+        const Block& b = graph.blocks[block];
+        const std::vector<int>& p = red.block_parameters[block];
+        Eigen::MatrixXd Tp(TangentDim(b.kind), p.size());
+        for (size_t k = 0; k < p.size(); ++k) {
+          Tp.col(static_cast<Eigen::Index>(k)) = T.block(b.tangent_offset, p[k], Tp.rows(), 1);
+        }
+        return Tp;
+      };
+      const auto put = [&](int a, int b) {
+        const std::vector<int>&pa = red.block_parameters[a], &pb = red.block_parameters[b];
+        Eigen::MatrixXd S(pa.size(), pb.size());
+        for (size_t k = 0; k < pa.size(); ++k) {
+          for (size_t l = 0; l < pb.size(); ++l) {
+            S(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l)) =
+                covariance_z(pa[k], pb[l]);
+          }
+        }
+        const Eigen::MatrixXd cov = rows_of(a) * S * rows_of(b).transpose();
+        const Block &ba = graph.blocks[a], &bb = graph.blocks[b];
+        P.block(ba.tangent_offset, bb.tangent_offset, cov.rows(), cov.cols()) = cov;
+        P.block(bb.tangent_offset, ba.tangent_offset, cov.cols(), cov.rows()) = cov.transpose();
+      };
+      for (size_t b = 0; b < graph.blocks.size(); ++b)
+        put(static_cast<int>(b), static_cast<int>(b));
+      for (const auto& [a, b] : *pairs) put(a, b);
+    }
+  }
+  for (const Factor& f : factors) {
+    if (!f.is_constraint()) continue;
+    EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, nullptr);
+    summary.max_constraint_residual =
+        std::max(summary.max_constraint_residual, r.lpNorm<Eigen::Infinity>());
+  }
+  return summary;
+}
+
+}  // namespace cfuse::internal

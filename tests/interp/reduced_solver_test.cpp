@@ -1,0 +1,130 @@
+// The solver with the forest's joints eliminated (interp/src/reduced_solver.h) against the
+// sparse solver on the example models with joints: the same objective, so the same answer and
+// covariance; a loop's closing constraint and the limits solved as rows, a redundant row left
+// out; and what it refuses.
+#include "reduced_solver.h"
+
+#include <catch2/catch.hpp>
+#include <random>
+
+#include "cfuse/dsl/model_loader.h"
+#include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/sparse_solver.h"
+#include "measured_model.h"
+#include "test_util.h"
+
+namespace cfuse::internal {
+namespace {
+
+const Rigid3d kMotion(
+    Eigen::Quaterniond(Eigen::AngleAxisd(0.7, Eigen::Vector3d(1, -2, 0.5).normalized())),
+    Eigen::Vector3d(0.2, -0.1, 1.4));
+
+// Both solved from `start`, each to its own step tolerance; the means and every covariance
+// entry compared (slacks by magnitude: ±λ are the same solution).
+ReducedSummary CheckAgainstSparse(const ConstraintGraph& g, const std::vector<Factor>& factors,
+                                  const Values& start) {
+  const Eigen::VectorXd prior_variance = PriorVariance(g.blocks, PriorScale{});
+  SparseOptions strict;
+  strict.settled_fraction = 0;
+  strict.full_covariance = true;
+  SparseEstimate sparse;
+  const SparseSummary s =
+      SolveSparse(factors, g.blocks, g.nominal, prior_variance, {}, &sparse, strict, &start);
+  REQUIRE(s.converged);
+  ReducedOptions reduced_strict;
+  reduced_strict.settled_fraction = 0;
+  ReducedEstimate reduced;
+  const ReducedSummary r =
+      SolveReduced(g, factors, g.nominal, prior_variance, &reduced, reduced_strict, &start);
+  INFO("reduced: " << r.iterations << " iterations, " << r.parameters << " parameters, "
+                   << r.constraint_rows << " rows, constraints to " << r.max_constraint_residual);
+  REQUIRE(r.converged);
+  CHECK(r.factorized);
+  CHECK(r.max_constraint_residual < 1e-10);
+  const Eigen::MatrixXd& reference = sparse.full_covariance();
+  REQUIRE(reduced.covariance.rows() == reference.rows());
+  double worst_mean = 0, worst = 0;
+  const double scale = reference.cwiseAbs().maxCoeff();
+  for (const Block& a : g.blocks) {
+    if (a.kind == BlockKind::kSlack) {
+      worst_mean = std::max(worst_mean, std::abs(std::abs(reduced.mean.slacks[a.index]) -
+                                                 std::abs(sparse.mean.slacks[a.index])));
+      continue;
+    }
+    Eigen::VectorXd d(TangentDim(a.kind));
+    LocalCoordinatesOfBlock(a, sparse.mean, reduced.mean, d.data());
+    worst_mean = std::max(worst_mean, d.lpNorm<Eigen::Infinity>());
+    for (const Block& b : g.blocks) {
+      if (b.kind == BlockKind::kSlack) continue;
+      const auto block = [&](const Eigen::MatrixXd& P) {
+        return P.block(a.tangent_offset, b.tangent_offset, TangentDim(a.kind), TangentDim(b.kind));
+      };
+      worst = std::max(worst, (block(reduced.covariance) - block(reference)).cwiseAbs().maxCoeff());
+    }
+  }
+  INFO(g.name << ": means " << worst_mean << " apart, covariances " << worst << " of " << scale);
+  CHECK(worst_mean < 1e-9);
+  CHECK(worst < 1e-7 * scale);
+  return r;
+}
+
+TEST_CASE("reduced solver: the sparse solver's answer and covariance on the models with joints",
+          "[interp]") {
+  std::mt19937 rng(21);
+  // The planar arm too: Gauss-Newton on its joint angles converges where on its poses it
+  // creeps, so the sparse solver, strict, is checked at its own (slow) convergence.
+  for (const char* file : {"examples/hinged-box.yaml", "examples/cabinet.yaml",
+                           "examples/folding-ruler.yaml", "examples/scissors.yaml"}) {
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
+    INFO(file);
+    REQUIRE(ReducedUnsupported(g, {}).empty());
+    Values truth;
+    const std::vector<Factor> factors = testing::MeasureEveryPoint(g, kMotion, rng, &truth);
+    const ReducedSummary r = CheckAgainstSparse(g, factors, truth);
+    // A pose and five joint rows per link against one angle: fewer parameters than the state.
+    CHECK(r.parameters < g.tangent_dim());
+  }
+}
+
+TEST_CASE("reduced solver: a loop's closing constraint is solved as rows, a repeated one left out",
+          "[interp]") {
+  // The four-bar's joints form a tree; `coupler.end == rocker.pin` closes the loop (two rows:
+  // the model keeps the two its joints do not imply); the crank's limit goes with its slack.
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/four-bar.yaml"));
+  std::mt19937 rng(3);
+  Values truth;
+  std::vector<Factor> factors = testing::MeasureEveryPoint(g, kMotion, rng, &truth);
+  const ReducedSummary r = CheckAgainstSparse(g, factors, truth);
+  CHECK(r.constraint_rows == 2);
+  CHECK(r.eliminated_slacks == 1);
+  CHECK(r.dependent_rows == 0);
+  // The loop given twice: the copy's rows are combinations of the original's.
+  const Constraint& loop = g.constraints[g.FindConstraint("loop")];
+  factors.push_back({loop.residual, loop.blocks, {}, "loop again"});
+  const ReducedSummary twice = CheckAgainstSparse(g, factors, truth);
+  CHECK(twice.constraint_rows == 2 + 2);
+  CHECK(twice.dependent_rows == 2);
+}
+
+TEST_CASE("reduced solver: what it does not take", "[interp]") {
+  const ConstraintGraph lamp = LoadModel(testing::SourcePath("examples/lamp.yaml"));
+  CHECK(ReducedUnsupported(lamp, {}) == "the model has no joints");
+  CHECK(ReducedParameters(lamp) == 0);
+  const ConstraintGraph box = LoadModel(testing::SourcePath("examples/hinged-box.yaml"));
+  CHECK(ReducedParameters(box) == 6 + 1);  // the box's pose and the hinge
+  // A measurement whose noise is not positive definite: no factorisation, no covariance.
+  std::mt19937 rng(5);
+  Values truth;
+  std::vector<Factor> factors = testing::MeasureEveryPoint(box, kMotion, rng, &truth);
+  factors.front().noise.setZero();
+  ReducedEstimate estimate;
+  const ReducedSummary s = SolveReduced(
+      box, factors, box.nominal, PriorVariance(box.blocks, PriorScale{}), &estimate, {}, &truth);
+  CHECK_FALSE(s.factorized);
+  CHECK_FALSE(s.converged);
+  CHECK(estimate.covariance.size() == 0);
+}
+
+}  // namespace
+}  // namespace cfuse::internal
