@@ -5,8 +5,10 @@
 #include <algorithm>
 #include <cmath>
 
+#include "cfuse/constraints/joint_model.h"
 #include "cfuse/constraints/kinds/joint_residual.h"
 #include "cfuse/kernel/check.h"
+#include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/jet.h"
 #include "cfuse/kernel/so3.h"
@@ -27,8 +29,9 @@ struct Reduction {
   std::vector<std::vector<int>> block_parameters;
 };
 
-// Why the graph's joints cannot be eliminated, or "" (and the reduction in `out`, if given).
-std::string Reduce(const ConstraintGraph& graph, Reduction* out) {
+// Why the graph's joints cannot be eliminated, or "" (and the reduction in `out`, if given,
+// each parameter's prior_sigma `length` for a length, 1 for an angle: its column scale).
+std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length = 1.0) {
   Reduction r;
   if (graph.joints.empty()) return "the model has no joints";
   if (std::string why = BuildForest(graph, ForestRules::kJointsFirst, &r.forest); !why.empty()) {
@@ -38,7 +41,7 @@ std::string Reduce(const ConstraintGraph& graph, Reduction* out) {
     if (b.kind == BlockKind::kPoint) return "a point block outside the components";
   }
   if (!out) return "";
-  LayoutParameters(graph, 1.0, 1.0, &r.forest);  // its priors are not used: the poses' are
+  LayoutParameters(graph, length, 1.0, &r.forest);  // not a prior: the poses' are
   r.influence = Influences(graph, r.forest);
   r.block_parameters.resize(graph.blocks.size());
   for (size_t c = 0; c < graph.components.size(); ++c) {
@@ -127,8 +130,17 @@ std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<F
 }
 
 int ReducedParameters(const ConstraintGraph& graph) {
-  Reduction r;
-  return Reduce(graph, &r).empty() ? r.forest.size : 0;
+  if (!Reduce(graph, nullptr).empty()) return 0;
+  Forest f;
+  BuildForest(graph, ForestRules::kJointsFirst, &f);
+  int count = 0;  // as LayoutParameters lays them out, without their names
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (f.parent_joint[c] < 0 && !f.fixed[c]) count += 6;
+  }
+  for (const Joint& j : graph.joints) {
+    if (!j.mimic) count += ModelOf(j.type).ParameterCount();
+  }
+  return count;
 }
 
 ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Factor>& factors,
@@ -442,6 +454,68 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         std::max(summary.max_constraint_residual, r.lpNorm<Eigen::Infinity>());
   }
   return summary;
+}
+
+bool AnalyseReducedFit(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                       const Values& values, double extent, FitAnalysis* out) {
+  if (!ReducedUnsupported(graph, factors).empty()) return false;
+  Reduction red;
+  Reduce(graph, &red, extent);  // column scales: a length in units of the extent, an angle in rad
+  const Forest& forest = red.forest;
+  const Eigen::Map<const Eigen::VectorXd> scale(forest.prior_sigma.data(), forest.size);
+  const Configuration x = FromPoses(graph, forest, values);
+  Values at = values;
+  Eigen::MatrixXd G;
+  ComponentPoses(graph, forest, red.influence, x, &at, &G);
+  G *= scale.asDiagonal();
+  FitAnalysis analysis;
+  analysis.state_dim = graph.tangent_dim();
+  std::vector<Eigen::RowVectorXd> constraint_rows, measurement_rows;
+  Eigen::VectorXd r;
+  Eigen::MatrixXd J;
+  for (const Factor& f : factors) {
+    bool held = false, slack = false;
+    for (size_t k = 0; k < graph.constraints.size(); ++k) {
+      held = held || (forest.held[k] && IsConstraint(graph, static_cast<int>(k), f));
+    }
+    for (int b : f.blocks) slack = slack || graph.blocks[b].kind == BlockKind::kSlack;
+    if (held || slack) continue;  // held by the parameters, or by their slack
+    EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, &J);
+    if (!r.allFinite() || !J.allFinite()) continue;
+    Eigen::MatrixXd Jz = Eigen::MatrixXd::Zero(J.rows(), forest.size);
+    int column = 0;
+    for (int b : f.blocks) {
+      const Block& block = graph.blocks[b];
+      Jz += J.middleCols(column, 6) * G.middleRows(block.tangent_offset, 6);
+      column += TangentDim(block.kind);
+    }
+    if (f.is_constraint()) {
+      for (int i = 0; i < Jz.rows(); ++i) {
+        const double norm = Jz.row(i).norm();
+        if (norm > 0) constraint_rows.push_back(Jz.row(i) / norm);
+      }
+      continue;
+    }
+    const Eigen::LLT<Eigen::MatrixXd> llt(f.noise);
+    if (llt.info() != Eigen::Success) continue;
+    analysis.fit.chi2 += llt.matrixL().solve(r).squaredNorm();
+    analysis.fit.residuals += static_cast<int>(r.size());
+    const Eigen::MatrixXd rows = llt.matrixL().solve(Jz);
+    for (int i = 0; i < rows.rows(); ++i) measurement_rows.push_back(rows.row(i));
+  }
+  const auto stack = [&](const std::vector<Eigen::RowVectorXd>& rows) {
+    Eigen::MatrixXd m(rows.size(), forest.size);
+    for (size_t i = 0; i < rows.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = rows[i];
+    return m;
+  };
+  const Eigen::MatrixXd free = FreeDirections(stack(constraint_rows), stack(measurement_rows),
+                                              &analysis.model_dof, &analysis.determined);
+  if (free.cols() > 0) return false;
+  analysis.fit.dof = std::max(0, analysis.fit.residuals - analysis.determined);
+  analysis.fit.p_value =
+      analysis.fit.dof > 0 ? 1 - ChiSquareCdf(analysis.fit.chi2, analysis.fit.dof) : 1.0;
+  *out = std::move(analysis);
+  return true;
 }
 
 }  // namespace cfuse::internal

@@ -30,6 +30,7 @@
 
 #include "cfuse/constraints/graph.h"
 #include "cfuse/kernel/factor.h"
+#include "cfuse/kernel/fit_analysis.h"
 #include "cfuse/kernel/values.h"
 
 namespace cfuse::internal {
@@ -84,5 +85,17 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
                             ReducedEstimate* estimate, const ReducedOptions& options = {},
                             const Values* initial = nullptr,
                             const std::vector<std::pair<int, int>>* pairs = nullptr);
+
+// AnalyseFit (cfuse/kernel/fit_analysis.h) of an answer whose joints hold, counted on the
+// forest's parameters: the joints' own rows are held by the parametrisation and each
+// inequality's row by its slack (away from its boundary, as SolveReduced's answers that solve
+// keeps are), so the degrees of freedom are the parameters' less the rank of
+// the other constraint rows, and those the measurements determine are counted among them, as
+// AnalyseFit's dense analysis counts them on the whole state (radians against the extent).
+// The same fit and counts at a fraction of the cost. False, `out` untouched, when the
+// measurements leave directions free (AnalyseFit names them in the whole state) or when the
+// graph's joints cannot be eliminated.
+bool AnalyseReducedFit(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                       const Values& values, double extent, FitAnalysis* out);
 
 }  // namespace cfuse::internal

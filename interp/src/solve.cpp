@@ -450,6 +450,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     if (better(summary, other)) {
       solution->state = std::move(state);
       solution->summary = std::move(summary);
+      solution->estimator = Estimator::kFilter;
       fit = other;
     }
   }
@@ -466,10 +467,15 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     if (better(summary, other)) {
       solution->state = std::move(state);
       solution->summary = std::move(summary);
+      solution->estimator = Estimator::kFilter;
       fit = other;
     }
   }
-  solution->analysis = AnalyseFit(factors, graph.blocks, solution->state.mean, solution->extent);
+  if (solution->estimator != Estimator::kReduced ||
+      !internal::AnalyseReducedFit(graph, factors, solution->state.mean, solution->extent,
+                                   &solution->analysis)) {
+    solution->analysis = AnalyseFit(factors, graph.blocks, solution->state.mean, solution->extent);
+  }
   for (size_t i = 0; i < factors.size(); ++i) {
     if (solution->summary.fusions[i].status == FusionSummary::Status::kContradiction) {
       solution->contradictions.push_back(factors[i].name);

@@ -53,33 +53,14 @@ int SparseRank(SparseMatrix a, double tolerance) {
   return static_cast<int>(qr.rank());
 }
 
-// The dense analysis, for a state with free directions to name: the constraints' null space
-// N by SVD, then the eigenvectors of Nᵀ (MᵀM) N with negligible eigenvalues.
+// The dense analysis, for a state with free directions to name.
 void NameFreeDirections(const SparseMatrix& constraints, const SparseMatrix& measurements,
                         const Eigen::VectorXd& scale, FitAnalysis* out) {
-  const int n = static_cast<int>(scale.size());
-  Eigen::MatrixXd null_space = Eigen::MatrixXd::Identity(n, n);
-  if (constraints.rows() > 0) {
-    const SingularValueDecomposition svd =
-        ComputeSvd(Eigen::MatrixXd(constraints), SingularVectors::kFullV);
-    const Eigen::VectorXd& s = svd.singular_values;
-    int rank = 0;
-    for (int i = 0; i < s.size(); ++i) rank += s[i] > kConstraintTolerance * s[0];
-    null_space = svd.V.rightCols(n - rank);
-  }
-  out->model_dof = static_cast<int>(null_space.cols());
-  out->determined = 0;
-  if (out->model_dof == 0) return;
-  const Eigen::MatrixXd projected = measurements * null_space;
-  const Eigen::MatrixXd reduced = projected.transpose() * projected;
-  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(reduced);
-  const Eigen::VectorXd& lambda = eigen.eigenvalues();  // ascending
-  const double largest = lambda[lambda.size() - 1];
-  int free = 0;
-  while (free < lambda.size() && !(lambda[free] > kInformationTolerance * largest)) ++free;
-  out->determined = out->model_dof - free;
-  if (free > 0) {
-    out->free_directions = scale.asDiagonal() * null_space * eigen.eigenvectors().leftCols(free);
+  const Eigen::MatrixXd free =
+      FreeDirections(Eigen::MatrixXd(constraints), Eigen::MatrixXd(measurements), &out->model_dof,
+                     &out->determined);
+  if (free.cols() > 0) {
+    out->free_directions = scale.asDiagonal() * free;
     out->free_directions.colwise().normalize();
   }
 }
@@ -121,6 +102,34 @@ int FreeUnderConstraints(const std::vector<Block>& blocks,
 }
 
 }  // namespace
+
+// The constraints' null space N by SVD, then the eigenvectors of Nᵀ (MᵀM) N with negligible
+// eigenvalues.
+Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
+                               const Eigen::MatrixXd& measurements, int* model_dof,
+                               int* determined) {
+  const int n = static_cast<int>(measurements.cols());
+  Eigen::MatrixXd null_space = Eigen::MatrixXd::Identity(n, n);
+  if (constraints.rows() > 0) {
+    const SingularValueDecomposition svd = ComputeSvd(constraints, SingularVectors::kFullV);
+    const Eigen::VectorXd& s = svd.singular_values;
+    int rank = 0;
+    for (int i = 0; i < s.size(); ++i) rank += s[i] > kConstraintTolerance * s[0];
+    null_space = svd.V.rightCols(n - rank);
+  }
+  *model_dof = static_cast<int>(null_space.cols());
+  *determined = 0;
+  if (*model_dof == 0) return Eigen::MatrixXd(n, 0);
+  const Eigen::MatrixXd projected = measurements * null_space;
+  const Eigen::MatrixXd reduced = projected.transpose() * projected;
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(reduced);
+  const Eigen::VectorXd& lambda = eigen.eigenvalues();  // ascending
+  const double largest = lambda[lambda.size() - 1];
+  int free = 0;
+  while (free < lambda.size() && !(lambda[free] > kInformationTolerance * largest)) ++free;
+  *determined = *model_dof - free;
+  return null_space * eigen.eigenvectors().leftCols(free);
+}
 
 FitAnalysis AnalyseFit(const std::vector<Factor>& factors, const std::vector<Block>& blocks,
                        const Values& values, double extent, bool ranks) {

@@ -4,11 +4,13 @@
 // out; and what it refuses.
 #include "reduced_solver.h"
 
+#include <algorithm>
 #include <catch2/catch.hpp>
 #include <random>
 
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/kernel/estimator.h"
+#include "cfuse/kernel/fit_analysis.h"
 #include "cfuse/kernel/sparse_solver.h"
 #include "measured_model.h"
 #include "test_util.h"
@@ -41,6 +43,7 @@ ReducedSummary CheckAgainstSparse(const ConstraintGraph& g, const std::vector<Fa
                    << r.constraint_rows << " rows, constraints to " << r.max_constraint_residual);
   REQUIRE(r.converged);
   CHECK(r.factorized);
+  CHECK(r.parameters == ReducedParameters(g));  // counted as they are laid out
   CHECK(r.max_constraint_residual < 1e-10);
   const Eigen::MatrixXd& reference = sparse.full_covariance();
   REQUIRE(reduced.covariance.rows() == reference.rows());
@@ -124,6 +127,56 @@ TEST_CASE("reduced solver: what it does not take", "[interp]") {
   CHECK_FALSE(s.factorized);
   CHECK_FALSE(s.converged);
   CHECK(estimate.covariance.size() == 0);
+}
+
+// The fit and the counts on the parameters are AnalyseFit's on the whole state, at the reduced
+// answer; where the measurements leave a direction free, AnalyseFit answers (it names them).
+TEST_CASE("reduced solver: the fit analysis on the parameters is the whole state's", "[interp]") {
+  std::mt19937 rng(9);
+  int freed = 0;
+  for (const char* file :
+       {"examples/hinged-box.yaml", "examples/cabinet.yaml", "examples/folding-ruler.yaml",
+        "examples/four-bar.yaml", "examples/planar-arm.yaml"}) {
+    const ConstraintGraph g = LoadModel(testing::SourcePath(file));
+    INFO(file);
+    Values truth;
+    std::vector<Factor> factors = testing::MeasureEveryPoint(g, kMotion, rng, &truth);
+    ReducedEstimate estimate;
+    REQUIRE(SolveReduced(g, factors, g.nominal, PriorVariance(g.blocks, PriorScale{}), &estimate,
+                         {}, &truth)
+                .converged);
+    const double extent = 0.5;
+    const FitAnalysis whole = AnalyseFit(factors, g.blocks, estimate.mean, extent);
+    FitAnalysis reduced;
+    REQUIRE(AnalyseReducedFit(g, factors, estimate.mean, extent, &reduced));
+    CHECK(whole.free_directions.cols() == 0);
+    CHECK(reduced.state_dim == whole.state_dim);
+    CHECK(reduced.model_dof == whole.model_dof);
+    CHECK(reduced.determined == whole.determined);
+    CHECK(reduced.fit.residuals == whole.fit.residuals);
+    CHECK(reduced.fit.dof == whole.fit.dof);
+    CHECK(reduced.fit.chi2 == Approx(whole.fit.chi2).epsilon(1e-12));
+    CHECK(reduced.fit.p_value == Approx(whole.fit.p_value).epsilon(1e-9));
+    CHECK(reduced.analysed);
+
+    // The last component's measurements left out: where that frees its joint, AnalyseFit answers.
+    const int last = g.components.back().block;
+    factors.erase(
+        std::remove_if(factors.begin(), factors.end(),
+                       [&](const Factor& f) { return !f.is_constraint() && f.blocks[0] == last; }),
+        factors.end());
+    // (Where a loop or the other links still determine it, both say so.)
+    const FitAnalysis partial = AnalyseFit(factors, g.blocks, estimate.mean, extent);
+    FitAnalysis counted;
+    const bool answered = AnalyseReducedFit(g, factors, estimate.mean, extent, &counted);
+    CHECK(answered == (partial.determined == partial.model_dof));
+    if (answered) {
+      CHECK(counted.determined == partial.determined);
+      CHECK(counted.fit.dof == partial.fit.dof);
+    }
+    freed += !answered;
+  }
+  CHECK(freed >= 3);
 }
 
 }  // namespace
