@@ -29,18 +29,24 @@ struct Reduction {
   std::vector<std::vector<int>> block_parameters;
 };
 
-// Why the graph's joints cannot be eliminated, or "" (and the reduction in `out`, if given,
-// each parameter's prior_sigma `length` for a length, 1 for an angle: its column scale).
-std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length = 1.0) {
-  Reduction r;
+// Why the graph's joints cannot be eliminated, or "" with the forest's structure in `forest`
+// (if given).
+std::string Structure(const ConstraintGraph& graph, Forest* forest) {
   if (graph.joints.empty()) return "the model has no joints";
-  if (std::string why = BuildForest(graph, ForestRules::kJointsFirst, &r.forest); !why.empty()) {
+  if (std::string why = BuildForest(graph, ForestRules::kJointsFirst, forest); !why.empty()) {
     return why;
   }
   for (const Block& b : graph.blocks) {
     if (b.kind == BlockKind::kPoint) return "a point block outside the components";
   }
-  if (!out) return "";
+  return "";
+}
+
+// Structure's answer, and the reduction in `out` (each parameter's prior_sigma `length` for a
+// length, 1 for an angle: its column scale).
+std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length = 1.0) {
+  Reduction r;
+  if (std::string why = Structure(graph, &r.forest); !why.empty()) return why;
   LayoutParameters(graph, length, 1.0, &r.forest);  // not a prior: the poses' are
   r.influence = Influences(graph, r.forest);
   r.block_parameters.resize(graph.blocks.size());
@@ -114,7 +120,7 @@ bool IsConstraint(const ConstraintGraph& graph, int k, const Factor& f) {
 }  // namespace
 
 std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<Factor>& factors) {
-  if (std::string why = Reduce(graph, nullptr); !why.empty()) return why;
+  if (std::string why = Structure(graph, nullptr); !why.empty()) return why;
   // Each slack must belong to one inequality of one row, which it is eliminated with.
   std::vector<int> uses(graph.blocks.size(), 0);
   for (const Factor& f : factors) {
@@ -130,9 +136,8 @@ std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<F
 }
 
 int ReducedParameters(const ConstraintGraph& graph) {
-  if (!Reduce(graph, nullptr).empty()) return 0;
   Forest f;
-  BuildForest(graph, ForestRules::kJointsFirst, &f);
+  if (!Structure(graph, &f).empty()) return 0;
   int count = 0;  // as LayoutParameters lays them out, without their names
   for (size_t c = 0; c < graph.components.size(); ++c) {
     if (f.parent_joint[c] < 0 && !f.fixed[c]) count += 6;
@@ -266,13 +271,13 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       } else {
         EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, &J);
         finite = r.allFinite() && J.allFinite() && map.whitened;
-        FactorTangent(graph, f, map, G, &Tf);
         if (!f.is_constraint() && f.blocks.size() == 1) {
           Jw.noalias() = map.whiten * J;
           information[f.blocks[0]].noalias() += Jw.transpose() * Jw;
           gradient[f.blocks[0]].noalias() += Jw.transpose() * (map.whiten * r);
           continue;
         }
+        FactorTangent(graph, f, map, G, &Tf);
         const Eigen::MatrixXd Jz = J * Tf;
         if (!f.is_constraint()) {
           Accumulate(map.parameters, map.whiten * Jz, map.whiten * r, &H, &g);

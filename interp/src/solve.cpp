@@ -423,14 +423,14 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
              SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution, &fit)) {
     solution->estimator = Estimator::kSparse;
   }
-  const bool sparse = solution->estimator != Estimator::kFilter;
-  if (!sparse) solution->summary = FuseSequence(factors, &solution->state, sequence);
+  const bool batch_answered = solution->estimator != Estimator::kFilter;
+  if (!batch_answered) solution->summary = FuseSequence(factors, &solution->state, sequence);
   // A converged estimate that the measurements do not fit is a local minimum as surely as an
   // unconverged one is a failure: both get the other starts, and the better fit is kept.
   const auto chi2 = [&](const GaussianState& state) {
     return AnalyseFit(factors, graph.blocks, state.mean, solution->extent, false).fit;
   };
-  if (!sparse) fit = chi2(solution->state);
+  if (!batch_answered) fit = chi2(solution->state);
   const auto acceptable = [&] {
     return solution->summary.converged && fit.p_value >= options.min_p_value;
   };
