@@ -60,6 +60,50 @@ std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length =
   return "";
 }
 
+// L⁻¹ of a lower-triangular L, by forward substitution (a general triangular solve's blocking
+// costs more than the arithmetic at a marker's or a robot's few rows).
+Eigen::MatrixXd LowerInverse(const Eigen::MatrixXd& L) {
+  const Eigen::Index n = L.rows();
+  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
+  for (Eigen::Index j = 0; j < n; ++j) {
+    X(j, j) = 1 / L(j, j);
+    for (Eigen::Index i = j + 1; i < n; ++i) {
+      double sum = 0;
+      for (Eigen::Index k = j; k < i; ++k) sum += L(i, k) * X(k, j);
+      X(i, j) = -sum / L(i, i);
+    }
+  }
+  return X;
+}
+
+// W = L⁻¹ (R = L Lᵀ) by R's diagonal blocks, as (first row, W's block); false when R is not
+// positive definite.
+bool Whitening(const Eigen::MatrixXd& R, std::vector<std::pair<int, Eigen::MatrixXd>>* out) {
+  out->clear();
+  const Eigen::Index n = R.rows();
+  for (Eigen::Index first = 0; first < n;) {
+    Eigen::Index end = first + 1;  // grown until nothing outside [first, end) couples to it
+    for (Eigen::Index i = first; i < end; ++i) {
+      for (Eigen::Index j = n - 1; j >= end; --j) {
+        if (R(i, j) != 0 || R(j, i) != 0) {
+          end = j + 1;
+          break;
+        }
+      }
+    }
+    const Eigen::LLT<Eigen::MatrixXd> llt(R.block(first, first, end - first, end - first));
+    if (llt.info() != Eigen::Success) return false;
+    out->emplace_back(static_cast<int>(first), LowerInverse(llt.matrixLLT()));
+    first = end;
+  }
+  return true;
+}
+
+// Whether `residual` is graph constraint k's.
+bool IsConstraint(const ConstraintGraph& graph, int k, const Factor& f) {
+  return k >= 0 && graph.constraints[k].residual.get() == f.residual.get();
+}
+
 // Per factor: how it enters the reduced problem.
 struct FactorMap {
   bool held = false;  // a constraint the forest holds by construction
@@ -76,8 +120,10 @@ struct FactorMap {
   const JointLimitResidual* limit = nullptr;
   std::vector<int> parameters;  // those its blocks (but an eliminated slack) depend on
   std::vector<int> first_column;
-  Eigen::MatrixXd whiten;  // measurements: Lw⁻¹, R = Lw Lwᵀ
-  bool whitened = true;    // false: R not positive definite
+  // Measurements: W = Lw⁻¹ (R = Lw Lwᵀ) by R's diagonal blocks (a stacked factor's markers,
+  // each its own), as (first row, W's block).
+  std::vector<std::pair<int, Eigen::MatrixXd>> whiten;
+  bool whitened = true;  // false: R not positive definite
 };
 
 // dx/dz over the factor's pose blocks: rows its Jacobian's columns, columns its parameters.
@@ -94,27 +140,217 @@ void FactorTangent(const ConstraintGraph& graph, const Factor& factor, const Fac
   }
 }
 
-// H(p, p) += Jᵀ J, g(p) += Jᵀ r for the parameters p.
-void Accumulate(const std::vector<int>& p, const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
-                Eigen::MatrixXd* H, Eigen::VectorXd* g) {
-  const Eigen::MatrixXd JtJ = J.transpose() * J;
-  const Eigen::VectorXd Jtr = J.transpose() * r;
-  for (size_t k = 0; k < p.size(); ++k) {
-    (*g)[p[k]] += Jtr[static_cast<Eigen::Index>(k)];
-    for (size_t l = 0; l < p.size(); ++l) {
-      (*H)(p[k], p[l]) += JtJ(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l));
+// What stays fixed over a solve and its fit analysis: the reduction and each factor's map.
+struct Problem {
+  Reduction red;
+  std::vector<FactorMap> maps;
+  int constraint_rows = 0;  // rows kept as rows (neither held nor eliminated with a slack)
+  int eliminated_slacks = 0;
+};
+
+// The problem of `factors` on the graph's forest (ReducedUnsupported empty), its parameters'
+// prior_sigma `length` for a length and 1 for an angle (the fit analysis's column scale).
+void Prepare(const ConstraintGraph& graph, const std::vector<Factor>& factors, double length,
+             Problem* out) {
+  Problem& p = *out;
+  Reduce(graph, &p.red, length);
+  const Forest& forest = p.red.forest;
+  p.maps.assign(factors.size(), FactorMap{});
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const Factor& f = factors[i];
+    FactorMap& map = p.maps[i];
+    int column = 0;
+    for (size_t s = 0; s < f.blocks.size(); ++s) {
+      const Block& b = graph.blocks[f.blocks[s]];
+      map.first_column.push_back(column);
+      column += TangentDim(b.kind);
+      if (b.kind == BlockKind::kSlack) map.slack_slot = static_cast<int>(s);
+      map.parameters.insert(map.parameters.end(), p.red.block_parameters[f.blocks[s]].begin(),
+                            p.red.block_parameters[f.blocks[s]].end());
+    }
+    std::sort(map.parameters.begin(), map.parameters.end());
+    map.parameters.erase(std::unique(map.parameters.begin(), map.parameters.end()),
+                         map.parameters.end());
+    if (!f.is_constraint()) {
+      map.whitened = Whitening(f.noise, &map.whiten);
+      continue;
+    }
+    for (size_t k = 0; k < graph.constraints.size(); ++k) {
+      if (forest.held[k] && IsConstraint(graph, static_cast<int>(k), f)) map.held = true;
+    }
+    for (size_t j = 0; j < graph.joints.size(); ++j) {
+      const int leader_parameter = forest.joint_parameter[forest.leader[j]];
+      if (!IsConstraint(graph, graph.joints[j].limit_constraint, f) || leader_parameter < 0) {
+        continue;
+      }
+      map.limit = dynamic_cast<const JointLimitResidual*>(f.residual.get());
+      if (map.limit) {
+        map.limit_joint = static_cast<int>(j);
+        map.parameters = {leader_parameter};
+      }
+    }
+    if (map.slack_slot >= 0) {
+      p.red.block_parameters[f.blocks[map.slack_slot]] = map.parameters;
+      ++p.eliminated_slacks;
+    } else if (!map.held) {
+      p.constraint_rows += f.residual->dimension();
     }
   }
+}
+
+// Buffers of the per-factor and per-pose work, reused across iterations. The products are
+// small (a marker's rows, a pose's six coordinates), lazily evaluated: a general product's
+// blocking costs more than the arithmetic at these sizes.
+struct Scratch {
+  Eigen::VectorXd r, Wr, Jtr, gb;
+  Eigen::MatrixXd J, Jw, Tf, Jz, JtJ, Hb;
+  Eigen::Matrix<double, 6, Eigen::Dynamic> Tb, ITb;  // ProjectPoses's, as wide as the parameters
+  std::vector<Matrix6> information;                  // per block, in its own tangent
+  std::vector<Vector6> gradient;
+
+  Scratch(const ConstraintGraph& graph, int parameters)
+      : gb(parameters),
+        Hb(parameters, parameters),
+        Tb(6, parameters),
+        ITb(6, parameters),
+        information(graph.blocks.size()),
+        gradient(graph.blocks.size()) {}
+};
+
+// H(p, p) += Jᵀ J, g(p) += Jᵀ r for the parameters p.
+void Accumulate(const std::vector<int>& p, const Eigen::MatrixXd& J, const Eigen::VectorXd& r,
+                Eigen::MatrixXd* H, Eigen::VectorXd* g, Scratch* s) {
+  s->JtJ.noalias() = J.transpose().lazyProduct(J);
+  s->Jtr.noalias() = J.transpose().lazyProduct(r);
+  for (size_t k = 0; k < p.size(); ++k) {
+    (*g)[p[k]] += s->Jtr[static_cast<Eigen::Index>(k)];
+    for (size_t l = 0; l < p.size(); ++l) {
+      (*H)(p[k], p[l]) += s->JtJ(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l));
+    }
+  }
+}
+
+// Each pose's information and gradient gathered in its tangent (`s`) moved onto the parameters
+// that move it: H(p, p) += Tbᵀ I Tb, g(p) += Tbᵀ v, Tb its rows of G on its parameters p.
+void ProjectPoses(const ConstraintGraph& graph, const Reduction& red, const Eigen::MatrixXd& G,
+                  Scratch* s, Eigen::MatrixXd* H, Eigen::VectorXd* g) {
+  for (size_t b = 0; b < graph.blocks.size(); ++b) {
+    if (graph.blocks[b].kind != BlockKind::kPose) continue;
+    const std::vector<int>& p = red.block_parameters[b];
+    const int o = graph.blocks[b].tangent_offset;
+    const auto np = static_cast<Eigen::Index>(p.size());
+    auto Tb = s->Tb.leftCols(np);
+    auto ITb = s->ITb.leftCols(np);
+    for (Eigen::Index k = 0; k < np; ++k) Tb.col(k) = G.block<6, 1>(o, p[k]);
+    ITb.noalias() = s->information[b].lazyProduct(Tb);
+    auto Hb = s->Hb.topLeftCorner(np, np);
+    auto gb = s->gb.head(np);
+    Hb.noalias() = Tb.transpose().lazyProduct(ITb);
+    gb.noalias() = Tb.transpose().lazyProduct(s->gradient[b]);
+    for (Eigen::Index k = 0; k < np; ++k) {
+      (*g)[p[k]] += gb[k];
+      for (Eigen::Index l = 0; l < np; ++l) (*H)(p[k], p[l]) += Hb(k, l);
+    }
+  }
+}
+
+// A measurement's whitened rows at `values` (W r, W J in s->Wr, s->Jw), or false where they
+// are not finite or W is not defined.
+bool Whitened(const ConstraintGraph& graph, const Factor& f, const FactorMap& map,
+              const Values& values, Scratch* s) {
+  EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &s->r, &s->J);
+  if (!map.whitened || !s->r.allFinite() || !s->J.allFinite()) return false;
+  s->Jw.resize(s->J.rows(), s->J.cols());
+  s->Wr.resize(s->r.size());
+  const Eigen::Index columns = s->J.cols();
+  for (const auto& [first, W] : map.whiten) {  // lower triangular, a marker's few rows
+    for (Eigen::Index i = 0; i < W.rows(); ++i) {
+      s->Jw.row(first + i).setZero();
+      s->Wr[first + i] = 0;
+      for (Eigen::Index k = 0; k <= i; ++k) {
+        const double w = W(i, k);
+        for (Eigen::Index c = 0; c < columns; ++c) s->Jw(first + i, c) += w * s->J(first + k, c);
+        s->Wr[first + i] += w * s->r[first + k];
+      }
+    }
+  }
+  return true;
+}
+
+// A multi-block factor's Jacobian s->J on its parameters, in s->Jz.
+void OnParameters(const ConstraintGraph& graph, const Factor& f, const FactorMap& map,
+                  const Eigen::MatrixXd& J, const Eigen::MatrixXd& G, Scratch* s) {
+  FactorTangent(graph, f, map, G, &s->Tf);
+  s->Jz.noalias() = J * s->Tf;
+}
+
+// The fit analysis of AnalyseReducedFit at `values`, G the poses' derivative there; false
+// when the measurements leave directions free.
+bool AnalyseAt(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+               const Problem& problem, const Values& values, const Eigen::MatrixXd& G, Scratch* s,
+               FitAnalysis* out) {
+  const Forest& forest = problem.red.forest;
+  const int nz = forest.size;
+  FitAnalysis analysis;
+  analysis.state_dim = graph.tangent_dim();
+  for (size_t b = 0; b < graph.blocks.size(); ++b) {
+    s->information[b].setZero();
+    s->gradient[b].setZero();
+  }
+  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(nz, nz), C(problem.constraint_rows, nz);
+  Eigen::VectorXd unused = Eigen::VectorXd::Zero(nz);
+  int rows = 0;
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const Factor& f = factors[i];
+    const FactorMap& map = problem.maps[i];
+    if (map.held || map.slack_slot >= 0) continue;  // held by the parameters, or by their slack
+    if (f.is_constraint()) {
+      EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &s->r, &s->J);
+      if (!s->r.allFinite() || !s->J.allFinite()) continue;
+      OnParameters(graph, f, map, s->J, G, s);
+      for (int k = 0; k < s->Jz.rows(); ++k) {
+        C.row(rows).setZero();
+        for (size_t l = 0; l < map.parameters.size(); ++l) {
+          C(rows, map.parameters[l]) = s->Jz(k, static_cast<Eigen::Index>(l));
+        }
+        ++rows;
+      }
+      continue;
+    }
+    if (!Whitened(graph, f, map, values, s)) continue;
+    analysis.fit.chi2 += s->Wr.squaredNorm();
+    analysis.fit.residuals += static_cast<int>(s->r.size());
+    if (f.blocks.size() == 1) {
+      s->information[f.blocks[0]].noalias() += s->Jw.transpose().lazyProduct(s->Jw);
+    } else {
+      OnParameters(graph, f, map, s->Jw, G, s);
+      Accumulate(map.parameters, s->Jz, s->Wr, &information, &unused, s);
+    }
+  }
+  ProjectPoses(graph, problem.red, G, s, &information, &unused);
+  // Columns scaled as AnalyseFit scales them: a length in units of the extent, an angle in rad.
+  const Eigen::Map<const Eigen::VectorXd> scale(forest.prior_sigma.data(), nz);
+  Eigen::MatrixXd constraints = C.topRows(rows) * scale.asDiagonal();
+  int kept = 0;
+  for (int k = 0; k < rows; ++k) {
+    const double norm = constraints.row(k).norm();
+    if (norm > 0) constraints.row(kept++) = constraints.row(k) / norm;
+  }
+  constraints.conservativeResize(kept, nz);
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * information * scale.asDiagonal();
+  if (FreeDirections(constraints, scaled, &analysis.model_dof, &analysis.determined).cols() > 0) {
+    return false;
+  }
+  analysis.fit.dof = std::max(0, analysis.fit.residuals - analysis.determined);
+  analysis.fit.p_value =
+      analysis.fit.dof > 0 ? 1 - ChiSquareCdf(analysis.fit.chi2, analysis.fit.dof) : 1.0;
+  *out = std::move(analysis);
+  return true;
 }
 
 Eigen::Vector3d RotationVector(const Eigen::Matrix3d& R) {
   const Eigen::AngleAxisd aa(R);
   return aa.angle() * aa.axis();
-}
-
-// Whether `residual` is graph constraint k's.
-bool IsConstraint(const ConstraintGraph& graph, int k, const Factor& f) {
-  return k >= 0 && graph.constraints[k].residual.get() == f.residual.get();
 }
 
 }  // namespace
@@ -152,62 +388,21 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
                             const Values& prior_mean, const Eigen::VectorXd& prior_variance,
                             ReducedEstimate* estimate, const ReducedOptions& options,
                             const Values* initial, const std::vector<std::pair<int, int>>* pairs) {
-  CFUSE_CHECK_MSG(ReducedUnsupported(graph, factors).empty(), ReducedUnsupported(graph, factors));
-  Reduction red;
-  Reduce(graph, &red);
+  if (const std::string why = ReducedUnsupported(graph, factors); !why.empty()) {
+    CFUSE_CHECK_MSG(false, why);
+  }
+  Problem problem;
+  Prepare(graph, factors, options.fit_extent > 0 ? options.fit_extent : 1.0, &problem);
+  const Reduction& red = problem.red;
+  std::vector<FactorMap>& maps = problem.maps;
   const Forest& forest = red.forest;
   const int nz = forest.size;
   const int n = graph.tangent_dim();
+  const int m = problem.constraint_rows;
   CFUSE_CHECK_EQ(prior_variance.size(), n);
   ReducedSummary summary;
   summary.parameters = nz;
-
-  std::vector<FactorMap> maps(factors.size());
-  int m = 0;  // constraint rows kept as rows
-  for (size_t i = 0; i < factors.size(); ++i) {
-    const Factor& f = factors[i];
-    FactorMap& map = maps[i];
-    int column = 0;
-    for (size_t s = 0; s < f.blocks.size(); ++s) {
-      const Block& b = graph.blocks[f.blocks[s]];
-      map.first_column.push_back(column);
-      column += TangentDim(b.kind);
-      if (b.kind == BlockKind::kSlack) map.slack_slot = static_cast<int>(s);
-      map.parameters.insert(map.parameters.end(), red.block_parameters[f.blocks[s]].begin(),
-                            red.block_parameters[f.blocks[s]].end());
-    }
-    std::sort(map.parameters.begin(), map.parameters.end());
-    map.parameters.erase(std::unique(map.parameters.begin(), map.parameters.end()),
-                         map.parameters.end());
-    if (!f.is_constraint()) {
-      const Eigen::LLT<Eigen::MatrixXd> llt(f.noise);
-      map.whitened = llt.info() == Eigen::Success;
-      if (map.whitened) {
-        map.whiten = llt.matrixL().solve(Eigen::MatrixXd::Identity(f.noise.rows(), f.noise.rows()));
-      }
-      continue;
-    }
-    for (size_t k = 0; k < graph.constraints.size(); ++k) {
-      if (forest.held[k] && IsConstraint(graph, static_cast<int>(k), f)) map.held = true;
-    }
-    for (size_t j = 0; j < graph.joints.size(); ++j) {
-      const int leader_parameter = forest.joint_parameter[forest.leader[j]];
-      if (!IsConstraint(graph, graph.joints[j].limit_constraint, f) || leader_parameter < 0) {
-        continue;
-      }
-      map.limit = dynamic_cast<const JointLimitResidual*>(f.residual.get());
-      if (map.limit) {
-        map.limit_joint = static_cast<int>(j);
-        map.parameters = {leader_parameter};
-      }
-    }
-    if (map.slack_slot >= 0) {
-      red.block_parameters[f.blocks[map.slack_slot]] = map.parameters;
-      ++summary.eliminated_slacks;
-    } else if (!map.held) {
-      m += f.residual->dimension();
-    }
-  }
+  summary.eliminated_slacks = problem.eliminated_slacks;
   summary.constraint_rows = m;
 
   const Values& start = initial ? *initial : prior_mean;
@@ -226,10 +421,9 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
     return true;
   };
 
-  Eigen::MatrixXd H(nz, nz), C(m, nz), Tf, J, Jw, Tb, Hb, Linv, LinvYt;
-  Eigen::VectorXd g(nz), c(m), r, gb;
-  std::vector<Matrix6> information(graph.blocks.size());
-  std::vector<Vector6> gradient(graph.blocks.size());
+  Scratch s(graph, nz);
+  Eigen::MatrixXd H(nz, nz), C(m, nz), Linv, LinvYt;
+  Eigen::VectorXd g(nz), c(m);
   bool factored = false;  // Linv and LinvYt hold the last iteration's
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     H.setZero();
@@ -246,11 +440,14 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       Vector6 delta;
       delta.head<3>() = RotationVector(pose0.RotationMatrix().transpose() * pose.RotationMatrix());
       delta.tail<3>() = pose.translation - pose0.translation;
-      Matrix6 D = Matrix6::Identity();
-      D.topLeftCorner<3, 3>() = RightJacobianSO3(delta.head<3>()).inverse();
+      const Eigen::Matrix3d D = RightJacobianSO3(delta.head<3>()).inverse();  // and I on t
       const Vector6 w = prior_variance.segment<6>(block.tangent_offset).cwiseInverse();
-      information[b].noalias() = D.transpose() * w.asDiagonal() * D;
-      gradient[b].noalias() = D.transpose() * w.cwiseProduct(delta);
+      Matrix6& information = s.information[b];
+      information.setZero();
+      information.topLeftCorner<3, 3>().noalias() = D.transpose() * w.head<3>().asDiagonal() * D;
+      information.bottomRightCorner<3, 3>().diagonal() = w.tail<3>();
+      s.gradient[b].head<3>().noalias() = D.transpose() * w.head<3>().cwiseProduct(delta.head<3>());
+      s.gradient[b].tail<3>() = w.tail<3>().cwiseProduct(delta.tail<3>());
     }
     int row = 0;
     bool finite = true;
@@ -258,6 +455,18 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       const Factor& f = factors[i];
       FactorMap& map = maps[i];
       if (map.held) continue;
+      if (!f.is_constraint()) {
+        finite = Whitened(graph, f, map, values, &s);
+        if (!finite) break;
+        if (f.blocks.size() == 1) {
+          s.information[f.blocks[0]].noalias() += s.Jw.transpose().lazyProduct(s.Jw);
+          s.gradient[f.blocks[0]].noalias() += s.Jw.transpose().lazyProduct(s.Wr);
+        } else {
+          OnParameters(graph, f, map, s.Jw, G, &s);
+          Accumulate(map.parameters, s.Jz, s.Wr, &H, &g, &s);
+        }
+        continue;
+      }
       if (map.limit_joint >= 0) {
         const int j = map.limit_joint;
         const double q = forest.multiplier[j] * x.q[forest.leader[j]] + forest.offset[j];
@@ -269,112 +478,89 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         map.a[0] = v.derivatives()[0] * forest.multiplier[j];
         map.a_lambda = v.derivatives()[1];
       } else {
-        EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, &J);
-        finite = r.allFinite() && J.allFinite() && map.whitened;
-        if (!f.is_constraint() && f.blocks.size() == 1) {
-          Jw.noalias() = map.whiten * J;
-          information[f.blocks[0]].noalias() += Jw.transpose() * Jw;
-          gradient[f.blocks[0]].noalias() += Jw.transpose() * (map.whiten * r);
-          continue;
-        }
-        FactorTangent(graph, f, map, G, &Tf);
-        const Eigen::MatrixXd Jz = J * Tf;
-        if (!f.is_constraint()) {
-          Accumulate(map.parameters, map.whiten * Jz, map.whiten * r, &H, &g);
-          continue;
-        }
+        EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &s.r, &s.J);
+        finite = s.r.allFinite() && s.J.allFinite();
+        if (!finite) break;
+        OnParameters(graph, f, map, s.J, G, &s);
         if (map.slack_slot < 0) {
-          C.middleRows(row, r.size()).setZero();
+          C.middleRows(row, s.r.size()).setZero();
           for (size_t k = 0; k < map.parameters.size(); ++k) {
-            C.block(row, map.parameters[k], r.size(), 1) = Jz.col(static_cast<Eigen::Index>(k));
+            C.block(row, map.parameters[k], s.r.size(), 1) = s.Jz.col(static_cast<Eigen::Index>(k));
           }
-          c.segment(row, r.size()) = r;
-          row += static_cast<int>(r.size());
+          c.segment(row, s.r.size()) = s.r;
+          row += static_cast<int>(s.r.size());
           continue;
         }
-        map.c = r[0];
-        map.a = Jz.row(0);
-        map.a_lambda = J(0, map.first_column[map.slack_slot]);
+        map.c = s.r[0];
+        map.a = s.Jz.row(0);
+        map.a_lambda = s.J(0, map.first_column[map.slack_slot]);
       }
       // The slack eliminated with its row: λ's prior, w (λ + Δλ - λ0)², is a measurement of z.
       // A vanishing a_λ is λ on the boundary, which the filter decides.
       const Block& slack_block = graph.blocks[f.blocks[map.slack_slot]];
-      finite =
-          finite && std::isfinite(map.c) && map.a.allFinite() && std::abs(map.a_lambda) > 1e-12;
+      finite = std::isfinite(map.c) && map.a.allFinite() && std::abs(map.a_lambda) > 1e-12;
       if (!finite) break;
-      const double s = 1 / std::sqrt(prior_variance[slack_block.tangent_offset]);
+      const double w = 1 / std::sqrt(prior_variance[slack_block.tangent_offset]);
       const double lambda = values.slacks[slack_block.index];
       const double lambda0 = prior_mean.slacks[slack_block.index];
-      Accumulate(map.parameters, (-s / map.a_lambda) * map.a,
-                 Eigen::VectorXd::Constant(1, s * (lambda - lambda0 - map.c / map.a_lambda)), &H,
-                 &g);
-    }
-    if (finite) {
-      for (size_t b = 0; b < graph.blocks.size(); ++b) {
-        if (graph.blocks[b].kind != BlockKind::kPose) continue;
-        const std::vector<int>& p = red.block_parameters[b];
-        const int o = graph.blocks[b].tangent_offset;
-        Tb.resize(6, static_cast<Eigen::Index>(p.size()));
-        for (size_t k = 0; k < p.size(); ++k) {
-          Tb.col(static_cast<Eigen::Index>(k)) = G.block<6, 1>(o, p[k]);
-        }
-        Hb.noalias() = Tb.transpose() * information[b] * Tb;
-        gb.noalias() = Tb.transpose() * gradient[b];
-        for (size_t k = 0; k < p.size(); ++k) {
-          g[p[k]] += gb[static_cast<Eigen::Index>(k)];
-          for (size_t l = 0; l < p.size(); ++l) {
-            H(p[k], p[l]) += Hb(static_cast<Eigen::Index>(k), static_cast<Eigen::Index>(l));
-          }
+      const double gain = -w / map.a_lambda;
+      const double residual = w * (lambda - lambda0 - map.c / map.a_lambda);
+      for (size_t k = 0; k < map.parameters.size(); ++k) {
+        const double ak = gain * map.a[static_cast<Eigen::Index>(k)];
+        g[map.parameters[k]] += ak * residual;
+        for (size_t l = 0; l < map.parameters.size(); ++l) {
+          H(map.parameters[k], map.parameters[l]) +=
+              ak * gain * map.a[static_cast<Eigen::Index>(l)];
         }
       }
     }
+    if (finite) ProjectPoses(graph, red, G, &s, &H, &g);
     const Eigen::LLT<Eigen::MatrixXd> llt(H);
     if (!finite || llt.info() != Eigen::Success) {
       summary.factorized = false;
       break;
     }
-    // The constraint rows by their Schur complement S = C H⁻¹ Cᵀ, each kept when its pivot
-    // is above the dependence tolerance of its own variance.
-    // H⁻¹ = Linvᵀ Linv; L⁻¹'s column k is zero above row k, so each solve starts there.
-    Linv.setZero(nz, nz);
-    const auto L_H = llt.matrixLLT();
-    for (int k = 0; k < nz; ++k) {
-      auto column = Linv.col(k).tail(nz - k);
-      column[0] = 1;
-      L_H.bottomRightCorner(nz - k, nz - k).triangularView<Eigen::Lower>().solveInPlace(column);
-    }
-    const Eigen::MatrixXd Y = llt.solve(C.transpose());
-    const Eigen::MatrixXd S = C * Y;
+    // H⁻¹ = Linvᵀ Linv, for the parameters' variances (the step test) and the covariance.
+    Linv = LowerInverse(llt.matrixLLT());
     const Eigen::VectorXd free_step = -llt.solve(g);
-    std::vector<int> kept;
-    Eigen::MatrixXd L(m, m);
-    for (int i = 0; i < m; ++i) {
-      const int k = static_cast<int>(kept.size());
-      Eigen::VectorXd l(k);
-      for (int a = 0; a < k; ++a) l[a] = S(kept[a], i);
-      if (k > 0) L.topLeftCorner(k, k).triangularView<Eigen::Lower>().solveInPlace(l);
-      const double pivot = S(i, i) - l.squaredNorm();
-      if (!(pivot > options.dependence_tolerance * S(i, i))) continue;
-      L.block(k, 0, 1, k) = l.transpose();
-      L(k, k) = std::sqrt(pivot);
-      kept.push_back(i);
+    Eigen::VectorXd step = free_step;
+    Eigen::VectorXd variance_z = Linv.colwise().squaredNorm().transpose();
+    LinvYt.resize(0, nz);
+    summary.dependent_rows = 0;
+    if (m > 0) {
+      // The constraint rows by their Schur complement S = C H⁻¹ Cᵀ, each kept when its pivot
+      // is above the dependence tolerance of its own variance.
+      const Eigen::MatrixXd Y = llt.solve(C.transpose());
+      const Eigen::MatrixXd S = C * Y;
+      std::vector<int> kept;
+      Eigen::MatrixXd L(m, m);
+      for (int i = 0; i < m; ++i) {
+        const int k = static_cast<int>(kept.size());
+        Eigen::VectorXd l(k);
+        for (int a = 0; a < k; ++a) l[a] = S(kept[a], i);
+        if (k > 0) L.topLeftCorner(k, k).triangularView<Eigen::Lower>().solveInPlace(l);
+        const double pivot = S(i, i) - l.squaredNorm();
+        if (!(pivot > options.dependence_tolerance * S(i, i))) continue;
+        L.block(k, 0, 1, k) = l.transpose();
+        L(k, k) = std::sqrt(pivot);
+        kept.push_back(i);
+      }
+      const int nk = static_cast<int>(kept.size());
+      summary.dependent_rows = m - nk;
+      Eigen::MatrixXd Yk(nz, nk);
+      Eigen::VectorXd ck(nk);
+      for (int a = 0; a < nk; ++a) {
+        Yk.col(a) = Y.col(kept[a]);
+        ck[a] = c[kept[a]] + C.row(kept[a]).dot(free_step);
+      }
+      const auto Lk = L.topLeftCorner(nk, nk).triangularView<Eigen::Lower>();
+      const Eigen::VectorXd mu = Lk.transpose().solve(Lk.solve(ck));
+      step -= Yk * mu;
+      // Cov(z) on the constraint surface: H⁻¹ - Y S⁻¹ Yᵀ over the rows kept, = Linvᵀ Linv -
+      // LinvYtᵀ LinvYt.
+      LinvYt = Lk.solve(Yk.transpose());
+      variance_z -= LinvYt.colwise().squaredNorm().transpose();
     }
-    const int nk = static_cast<int>(kept.size());
-    summary.dependent_rows = m - nk;
-    Eigen::MatrixXd Yk(nz, nk);
-    Eigen::VectorXd ck(nk);
-    for (int a = 0; a < nk; ++a) {
-      Yk.col(a) = Y.col(kept[a]);
-      ck[a] = c[kept[a]] + C.row(kept[a]).dot(free_step);
-    }
-    const auto Lk = L.topLeftCorner(nk, nk).triangularView<Eigen::Lower>();
-    const Eigen::VectorXd mu = Lk.transpose().solve(Lk.solve(ck));
-    const Eigen::VectorXd step = free_step - Yk * mu;
-    // Cov(z) on the constraint surface: H⁻¹ - Y S⁻¹ Yᵀ over the rows kept, = Linvᵀ Linv -
-    // LinvYtᵀ LinvYt; its diagonal for the step test, the whole of it once at the end.
-    LinvYt = Lk.solve(Yk.transpose());
-    const Eigen::VectorXd variance_z =
-        Linv.colwise().squaredNorm().transpose() - LinvYt.colwise().squaredNorm().transpose();
     factored = true;
 
     Retract(graph, forest, step, &x);
@@ -414,7 +600,8 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         T(o, map.parameters[k]) = -map.a[static_cast<Eigen::Index>(k)] / map.a_lambda;
       }
     }
-    const Eigen::MatrixXd covariance_z = Linv.transpose() * Linv - LinvYt.transpose() * LinvYt;
+    Eigen::MatrixXd covariance_z = Linv.transpose() * Linv;
+    if (LinvYt.rows() > 0) covariance_z.noalias() -= LinvYt.transpose() * LinvYt;
     Eigen::MatrixXd& P = estimate->covariance;
     if (!pairs) {
       const Eigen::MatrixXd A = T * covariance_z;
@@ -452,75 +639,29 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       for (const auto& [a, b] : *pairs) put(a, b);
     }
   }
+  Eigen::VectorXd r;
   for (const Factor& f : factors) {
     if (!f.is_constraint()) continue;
     EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, nullptr);
     summary.max_constraint_residual =
         std::max(summary.max_constraint_residual, r.lpNorm<Eigen::Infinity>());
   }
+  estimate->analysed = summary.converged && options.fit_extent > 0 &&
+                       AnalyseAt(graph, factors, problem, values, G, &s, &estimate->analysis);
   return summary;
 }
 
 bool AnalyseReducedFit(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                        const Values& values, double extent, FitAnalysis* out) {
   if (!ReducedUnsupported(graph, factors).empty()) return false;
-  Reduction red;
-  Reduce(graph, &red, extent);  // column scales: a length in units of the extent, an angle in rad
-  const Forest& forest = red.forest;
-  const Eigen::Map<const Eigen::VectorXd> scale(forest.prior_sigma.data(), forest.size);
-  const Configuration x = FromPoses(graph, forest, values);
+  Problem problem;
+  Prepare(graph, factors, extent, &problem);
+  const Forest& forest = problem.red.forest;
   Values at = values;
   Eigen::MatrixXd G;
-  ComponentPoses(graph, forest, red.influence, x, &at, &G);
-  G *= scale.asDiagonal();
-  FitAnalysis analysis;
-  analysis.state_dim = graph.tangent_dim();
-  std::vector<Eigen::RowVectorXd> constraint_rows, measurement_rows;
-  Eigen::VectorXd r;
-  Eigen::MatrixXd J;
-  for (const Factor& f : factors) {
-    bool held = false, slack = false;
-    for (size_t k = 0; k < graph.constraints.size(); ++k) {
-      held = held || (forest.held[k] && IsConstraint(graph, static_cast<int>(k), f));
-    }
-    for (int b : f.blocks) slack = slack || graph.blocks[b].kind == BlockKind::kSlack;
-    if (held || slack) continue;  // held by the parameters, or by their slack
-    EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &r, &J);
-    if (!r.allFinite() || !J.allFinite()) continue;
-    Eigen::MatrixXd Jz = Eigen::MatrixXd::Zero(J.rows(), forest.size);
-    int column = 0;
-    for (int b : f.blocks) {
-      const Block& block = graph.blocks[b];
-      Jz += J.middleCols(column, 6) * G.middleRows(block.tangent_offset, 6);
-      column += TangentDim(block.kind);
-    }
-    if (f.is_constraint()) {
-      for (int i = 0; i < Jz.rows(); ++i) {
-        const double norm = Jz.row(i).norm();
-        if (norm > 0) constraint_rows.push_back(Jz.row(i) / norm);
-      }
-      continue;
-    }
-    const Eigen::LLT<Eigen::MatrixXd> llt(f.noise);
-    if (llt.info() != Eigen::Success) continue;
-    analysis.fit.chi2 += llt.matrixL().solve(r).squaredNorm();
-    analysis.fit.residuals += static_cast<int>(r.size());
-    const Eigen::MatrixXd rows = llt.matrixL().solve(Jz);
-    for (int i = 0; i < rows.rows(); ++i) measurement_rows.push_back(rows.row(i));
-  }
-  const auto stack = [&](const std::vector<Eigen::RowVectorXd>& rows) {
-    Eigen::MatrixXd m(rows.size(), forest.size);
-    for (size_t i = 0; i < rows.size(); ++i) m.row(static_cast<Eigen::Index>(i)) = rows[i];
-    return m;
-  };
-  const Eigen::MatrixXd free = FreeDirections(stack(constraint_rows), stack(measurement_rows),
-                                              &analysis.model_dof, &analysis.determined);
-  if (free.cols() > 0) return false;
-  analysis.fit.dof = std::max(0, analysis.fit.residuals - analysis.determined);
-  analysis.fit.p_value =
-      analysis.fit.dof > 0 ? 1 - ChiSquareCdf(analysis.fit.chi2, analysis.fit.dof) : 1.0;
-  *out = std::move(analysis);
-  return true;
+  ComponentPoses(graph, forest, problem.red.influence, FromPoses(graph, forest, values), &at, &G);
+  Scratch s(graph, forest.size);
+  return AnalyseAt(graph, factors, problem, values, G, &s, out);
 }
 
 }  // namespace cfuse::internal

@@ -44,6 +44,9 @@ struct ReducedOptions {
   double step_tolerance = 1e-13;
   double constraint_tolerance = 1e-10;  // in the residuals' units
   double dependence_tolerance = 1e-12;
+  // > 0: a converged answer's fit analysed too (AnalyseReducedFit at this extent), on the
+  // solve's own forest and at its last forward kinematics.
+  double fit_extent = 0;
 };
 
 struct ReducedSummary {
@@ -63,6 +66,10 @@ struct ReducedEstimate {
   // In the chart at `mean` (Block::tangent_offset): whole, or with `pairs` given to
   // SolveReduced, each block's own and those pairs' only, NaN elsewhere.
   Eigen::MatrixXd covariance;
+  // With ReducedOptions::fit_extent: true and AnalyseReducedFit's answer at `mean` in
+  // `analysis`, or false where it has none (the measurements leave directions free).
+  bool analysed = false;
+  FitAnalysis analysis;
 };
 
 // Empty when the graph's joints can be eliminated for these factors: every component rigid,

@@ -122,14 +122,16 @@ LabelledStart SolveStart(const ConstraintGraph& graph, const MeasurementSet& set
   return {std::move(initial), std::move(unplaced)};
 }
 
-// Per factor: the first residual row and the name of each measurement it stacks.
-using StackedNames = std::vector<std::vector<std::pair<int, std::string>>>;
+// Per factor: the first residual row and the label (its index in the labels) of each
+// measurement it stacks; named only when one is reported.
+using StackedNames = std::vector<std::vector<std::pair<int, int>>>;
 
-// The factors of a labelled solve, in the order that keeps correlation groups small: one factor per
-// single point measurement, and one per rigid component stacking all its measurements
-// (measurements/stacked.h), in the order of their first measurement. An image measurement whose
-// point is at or behind the camera at `initial` is left out and reported in `invalid`. For each
-// factor, `stacked` gets the first residual row and the name of each measurement it stacks.
+// The factors of a labelled solve: one factor per single point measurement, and one per rigid
+// component stacking all its measurements (measurements/stacked.h), in the order of their
+// first measurement, then the constraints in the graph's order (FusionOrder puts them in the
+// filter's). An image measurement whose point is at or behind the camera at `initial` is left
+// out and reported in `invalid`. For each factor, `stacked` gets the first residual row and
+// the label of each measurement it stacks.
 std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const MeasurementSet& set,
                                  const SolveOptions& options,
                                  const std::vector<ResolvedLabel>& labels, const Values& initial,
@@ -138,7 +140,8 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
   std::vector<int> component_factor(graph.components.size(), -1);
   std::vector<std::vector<std::shared_ptr<const ResidualFunction>>> parts;
   std::vector<std::vector<Eigen::MatrixXd>> noises;
-  for (const ResolvedLabel& r : labels) {
+  for (size_t label = 0; label < labels.size(); ++label) {
+    const ResolvedLabel& r = labels[label];
     const MeasuredPoint& m = set.points[r.measurement];
     const Component& comp = graph.components[r.component];
     const std::shared_ptr<const ResidualFunction> f = MeasurementResidual(graph, set, r);
@@ -170,7 +173,7 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
                                                [](int n, const Eigen::MatrixXd& x) {
                                                  return n + static_cast<int>(x.rows());
                                                }),
-                               fmt::format("measurement {} ({})", r.measurement, m.label));
+                               static_cast<int>(label));
     parts[k].push_back(f);
     noises[k].push_back(noise);
   }
@@ -189,13 +192,19 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
     if (options.use_constraints_between_components || ConstraintComponents(graph, c).size() <= 1)
       factors.push_back({c.residual, c.blocks, {}, c.name});
   }
-  std::vector<Factor> ordered;
-  ordered.reserve(factors.size());
-  for (int i : GroupGrowthOrder(factors, static_cast<int>(graph.blocks.size()))) {
-    ordered.push_back(std::move(factors[i]));
-  }
-  factors = std::move(ordered);
   return factors;
+}
+
+// The factors in the order that keeps the filter's correlation groups small (the measurements
+// first, as they are, so `stacked` still indexes them). The batch solvers take any order; the
+// sparse one is given this one too, its dependent rows then left out as before.
+void FusionOrder(const ConstraintGraph& graph, std::vector<Factor>* factors) {
+  std::vector<Factor> ordered;
+  ordered.reserve(factors->size());
+  for (int i : GroupGrowthOrder(*factors, static_cast<int>(graph.blocks.size()))) {
+    ordered.push_back(std::move((*factors)[i]));
+  }
+  *factors = std::move(ordered);
 }
 
 // Whether the estimate leaves free something that measurement `r` (left out) would measure:
@@ -258,11 +267,10 @@ void StoreReported(const ConstraintGraph& graph, const SparseEstimate& estimate,
 
 // Whether a batch solver's answer is one the filter would give: converged with every
 // constraint within tolerance, no inequality on its boundary as FuseSequence judges it (λ²
-// within a hundred constraint tolerances: the filter's active-set test decides those), and a
-// fit the solution accepts (`fit`).
-bool Acceptable(const ConstraintGraph& graph, const std::vector<Factor>& factors, bool converged,
-                double max_constraint_residual, const Values& mean, const SequenceOptions& sequence,
-                const SolveOptions& options, double extent, Fit* fit) {
+// within a hundred constraint tolerances: the filter's active-set test decides those). Its fit
+// is judged apart (Accepted).
+bool Settled(const ConstraintGraph& graph, bool converged, double max_constraint_residual,
+             const Values& mean, const SequenceOptions& sequence) {
   if (!converged || !(max_constraint_residual <= sequence.constraint_tolerance)) return false;
   constexpr double kBoundary = 100;
   for (const Constraint& c : graph.constraints) {
@@ -270,8 +278,12 @@ bool Acceptable(const ConstraintGraph& graph, const std::vector<Factor>& factors
     const double lambda = mean.slacks[graph.blocks[c.slack_block].index];
     if (lambda * lambda <= kBoundary * sequence.constraint_tolerance) return false;
   }
-  *fit = AnalyseFit(factors, graph.blocks, mean, extent, false).fit;
-  return fit->p_value >= options.min_p_value;
+  return true;
+}
+
+// A fit the solution accepts.
+bool Accepted(const Fit& fit, const SolveOptions& options) {
+  return fit.p_value >= options.min_p_value;
 }
 
 // The pairs of blocks whose covariance results report besides each block's own: each joint's
@@ -321,10 +333,12 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
   const SparseSummary s =
       SolveSparse(factors, graph.blocks, initial, PriorVariance(graph.blocks, scale), pairs,
                   &estimate, sparse, &initial);
-  if (!Acceptable(graph, factors, s.factorized && s.converged, s.max_constraint_residual,
-                  estimate.mean, sequence, options, solution->extent, fit)) {
+  if (!Settled(graph, s.factorized && s.converged, s.max_constraint_residual, estimate.mean,
+               sequence)) {
     return false;
   }
+  *fit = AnalyseFit(factors, graph.blocks, estimate.mean, solution->extent, false).fit;
+  if (!Accepted(*fit, options)) return false;
   GaussianState& state = solution->state;
   state.mean = std::move(estimate.mean);
   if (sparse.full_covariance) {
@@ -337,30 +351,39 @@ bool SolveSparseFirst(const ConstraintGraph& graph, const std::vector<Factor>& f
 }
 
 // The same with the forest's joints eliminated (reduced_solver.h), on the same conditions,
-// for a model with joints and fewer than SolveOptions::reduced_below parameters.
+// for a model with joints and fewer than SolveOptions::reduced_below parameters. Its fit
+// analysis, counted on the forest's parameters, in `analysis` when it has one (`analysed`).
 bool SolveReducedFirst(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                        const Values& initial, const PriorScale& scale,
                        const SequenceOptions& sequence, const SolveOptions& options,
-                       Solution* solution, Fit* fit) {
+                       Solution* solution, Fit* fit, bool* analysed) {
+  *analysed = false;
   if (internal::ReducedParameters(graph) >= options.reduced_below ||
       !internal::ReducedUnsupported(graph, factors).empty()) {
     return false;
   }
   internal::ReducedOptions reduced;
   reduced.constraint_tolerance = sequence.constraint_tolerance;
+  reduced.fit_extent = solution->extent;
   internal::ReducedEstimate estimate;
   const std::vector<std::pair<int, int>> pairs = JointPairs(graph);
   const internal::ReducedSummary s = internal::SolveReduced(
       graph, factors, initial, PriorVariance(graph.blocks, scale), &estimate, reduced, &initial,
       graph.tangent_dim() < options.full_covariance_below ? nullptr : &pairs);
-  if (!Acceptable(graph, factors, s.factorized && s.converged, s.max_constraint_residual,
-                  estimate.mean, sequence, options, solution->extent, fit)) {
+  if (!Settled(graph, s.factorized && s.converged, s.max_constraint_residual, estimate.mean,
+               sequence)) {
     return false;
   }
+  *fit = estimate.analysed
+             ? estimate.analysis.fit
+             : AnalyseFit(factors, graph.blocks, estimate.mean, solution->extent, false).fit;
+  if (!Accepted(*fit, options)) return false;
   GaussianState& state = solution->state;
   state.mean = std::move(estimate.mean);
   state.covariance = std::move(estimate.covariance);
   BatchSummary(factors, s.iterations, s.max_constraint_residual, &solution->summary);
+  if (estimate.analysed) solution->analysis = std::move(estimate.analysis);
+  *analysed = estimate.analysed;
   return true;
 }
 
@@ -414,14 +437,18 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
   // plate 135 mm off, NEES 62 under the covariance that held the boundary, 54 without it).
   sequence.boundary_free_covariance = true;
   Fit fit;
+  bool analysed = false;  // solution->analysis is the answer's
   const bool batch = !pinned && graph.tangent_dim() >= options.sparse_from_dim;
   solution->estimator = Estimator::kFilter;
-  if (batch &&
-      SolveReducedFirst(graph, factors, initial, scale, sequence, options, solution, &fit)) {
+  if (batch && SolveReducedFirst(graph, factors, initial, scale, sequence, options, solution, &fit,
+                                 &analysed)) {
     solution->estimator = Estimator::kReduced;
-  } else if (batch &&
-             SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution, &fit)) {
-    solution->estimator = Estimator::kSparse;
+  } else {  // (a reduced answer is acceptable: the filter's tries below never follow it)
+    FusionOrder(graph, &factors);
+    if (batch &&
+        SolveSparseFirst(graph, factors, initial, scale, sequence, options, solution, &fit)) {
+      solution->estimator = Estimator::kSparse;
+    }
   }
   const bool batch_answered = solution->estimator != Estimator::kFilter;
   if (!batch_answered) solution->summary = FuseSequence(factors, &solution->state, sequence);
@@ -471,9 +498,7 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
       fit = other;
     }
   }
-  if (solution->estimator != Estimator::kReduced ||
-      !internal::AnalyseReducedFit(graph, factors, solution->state.mean, solution->extent,
-                                   &solution->analysis)) {
+  if (solution->estimator != Estimator::kReduced || !analysed) {
     solution->analysis = AnalyseFit(factors, graph.blocks, solution->state.mean, solution->extent);
   }
   for (size_t i = 0; i < factors.size(); ++i) {
@@ -483,9 +508,13 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     const FusionSummary& fusion = solution->summary.fusions[i];
     if (fusion.status == FusionSummary::Status::kInvalid) {
       std::string culprit;
-      for (const auto& [first_row, name] :
+      for (const auto& [first_row, label] :
            i < stacked.size() ? stacked[i] : StackedNames::value_type{}) {
-        if (fusion.invalid_row >= first_row) culprit = name;
+        const ResolvedLabel& r = labels[label];
+        if (fusion.invalid_row >= first_row) {
+          culprit =
+              fmt::format("measurement {} ({})", r.measurement, set.points[r.measurement].label);
+        }
       }
       solution->invalid.push_back(
           factors[i].name + ": not finite at the estimate" +
@@ -572,7 +601,9 @@ Solution Solve(const ConstraintGraph& graph, const MeasurementSet& set,
   solution.extent = ModelExtent(graph);
   std::vector<ResolvedLabel> used = solution.labels;
   const size_t max_rejected = used.size() / 5;
-  const double gate_3d = ChiSquareQuantile(1 - 1e-9, 3), gate_2d = ChiSquareQuantile(1 - 1e-9, 2);
+  // Constants, computed once (a quantile costs more than a small robot's whole solve).
+  static const double gate_3d = ChiSquareQuantile(1 - 1e-9, 3);
+  static const double gate_2d = ChiSquareQuantile(1 - 1e-9, 2);
   // Outliers are judged at the best of the minima, not at the first one found.
   const bool image = std::any_of(used.begin(), used.end(), [&](const ResolvedLabel& r) {
     return !set.points[r.measurement].is_3d;

@@ -135,7 +135,7 @@ std::vector<Values> Flips(const ConstraintGraph& graph, const MeasurementSet& se
                           const std::vector<ResolvedLabel>& labels,
                           const std::vector<std::vector<int>>& anchors, double extent,
                           const Values& at) {
-  const double gate = ChiSquareQuantile(1 - 1e-9, 2);
+  static const double gate = ChiSquareQuantile(1 - 1e-9, 2);
   std::vector<Values> out;
   for (int c = -1; c < static_cast<int>(graph.components.size()); ++c) {
     if (c >= 0 && (!graph.components[c].rigid || graph.components.size() == 1)) continue;

@@ -27,7 +27,7 @@ void AddValleyEnds(const ConstraintGraph& graph, const MeasurementSet& set,
   if (!P.allFinite()) return;
   const Values& answer = solution->state.mean;
   // The profile interval at 0.9999, one coordinate: the level the benchmarks judge answers at.
-  const double gate = ChiSquareQuantile(0.9999, 1);
+  static const double gate = ChiSquareQuantile(0.9999, 1);
   const double chi2 = solution->analysis.fit.chi2;
   const auto inside = [&](const Solution& at) {
     return Sound(at) && at.analysis.fit.p_value >= options.min_p_value &&

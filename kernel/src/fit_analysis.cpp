@@ -56,9 +56,9 @@ int SparseRank(SparseMatrix a, double tolerance) {
 // The dense analysis, for a state with free directions to name.
 void NameFreeDirections(const SparseMatrix& constraints, const SparseMatrix& measurements,
                         const Eigen::VectorXd& scale, FitAnalysis* out) {
-  const Eigen::MatrixXd free =
-      FreeDirections(Eigen::MatrixXd(constraints), Eigen::MatrixXd(measurements), &out->model_dof,
-                     &out->determined);
+  const Eigen::MatrixXd free = FreeDirections(
+      Eigen::MatrixXd(constraints), Eigen::MatrixXd(measurements.transpose() * measurements),
+      &out->model_dof, &out->determined);
   if (free.cols() > 0) {
     out->free_directions = scale.asDiagonal() * free;
     out->free_directions.colwise().normalize();
@@ -103,13 +103,13 @@ int FreeUnderConstraints(const std::vector<Block>& blocks,
 
 }  // namespace
 
-// The constraints' null space N by SVD, then the eigenvectors of Nᵀ (MᵀM) N with negligible
-// eigenvalues.
+// The constraints' null space N by SVD, then the eigenvalues of Nᵀ I N, and its eigenvectors
+// only when some are negligible (the usual answer is that none is, at a third of the cost).
 Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
-                               const Eigen::MatrixXd& measurements, int* model_dof,
+                               const Eigen::MatrixXd& information, int* model_dof,
                                int* determined) {
-  const int n = static_cast<int>(measurements.cols());
-  Eigen::MatrixXd null_space = Eigen::MatrixXd::Identity(n, n);
+  const int n = static_cast<int>(information.cols());
+  Eigen::MatrixXd null_space;
   if (constraints.rows() > 0) {
     const SingularValueDecomposition svd = ComputeSvd(constraints, SingularVectors::kFullV);
     const Eigen::VectorXd& s = svd.singular_values;
@@ -117,18 +117,26 @@ Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
     for (int i = 0; i < s.size(); ++i) rank += s[i] > kConstraintTolerance * s[0];
     null_space = svd.V.rightCols(n - rank);
   }
-  *model_dof = static_cast<int>(null_space.cols());
+  *model_dof = constraints.rows() > 0 ? static_cast<int>(null_space.cols()) : n;
   *determined = 0;
   if (*model_dof == 0) return Eigen::MatrixXd(n, 0);
-  const Eigen::MatrixXd projected = measurements * null_space;
-  const Eigen::MatrixXd reduced = projected.transpose() * projected;
+  const Eigen::MatrixXd reduced =
+      constraints.rows() > 0 ? Eigen::MatrixXd(null_space.transpose() * information * null_space)
+                             : information;
+  const auto count_free = [&](const Eigen::VectorXd& lambda) {  // ascending
+    const double largest = lambda[lambda.size() - 1];
+    int free = 0;
+    while (free < lambda.size() && !(lambda[free] > kInformationTolerance * largest)) ++free;
+    return free;
+  };
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> values(reduced, Eigen::EigenvaluesOnly);
+  *determined = *model_dof - count_free(values.eigenvalues());
+  if (*determined == *model_dof) return Eigen::MatrixXd(n, 0);
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen(reduced);
-  const Eigen::VectorXd& lambda = eigen.eigenvalues();  // ascending
-  const double largest = lambda[lambda.size() - 1];
-  int free = 0;
-  while (free < lambda.size() && !(lambda[free] > kInformationTolerance * largest)) ++free;
+  const int free = count_free(eigen.eigenvalues());
   *determined = *model_dof - free;
-  return null_space * eigen.eigenvectors().leftCols(free);
+  const Eigen::MatrixXd basis = eigen.eigenvectors().leftCols(free);
+  return constraints.rows() > 0 ? Eigen::MatrixXd(null_space * basis) : basis;
 }
 
 FitAnalysis AnalyseFit(const std::vector<Factor>& factors, const std::vector<Block>& blocks,

@@ -11,6 +11,7 @@
 #include "cfuse/dsl/model_loader.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/fit_analysis.h"
+#include "cfuse/kernel/measurements/stacked.h"
 #include "cfuse/kernel/sparse_solver.h"
 #include "measured_model.h"
 #include "test_util.h"
@@ -90,6 +91,44 @@ TEST_CASE("reduced solver: the sparse solver's answer and covariance on the mode
   }
 }
 
+// Each component's markers stacked in twos, as Solve stacks them, with noise correlated
+// within each marker and, in `coupled`, between the two: the whitening follows the noise's
+// blocks (treating coupled markers as independent would move the answer).
+TEST_CASE("reduced solver: stacked measurements whitened by their noise's blocks", "[interp]") {
+  const ConstraintGraph g = LoadModel(testing::SourcePath("examples/cabinet.yaml"));
+  for (const bool coupled : {false, true}) {
+    INFO((coupled ? "coupled" : "independent") << " markers");
+    std::mt19937 rng(4);
+    Values truth;
+    const std::vector<Factor> single = testing::MeasureEveryPoint(g, kMotion, rng, &truth);
+    Eigen::Matrix3d within;
+    within << 1.0, 0.3, -0.2, 0.3, 2.0, 0.1, -0.2, 0.1, 0.5;
+    std::vector<Factor> factors;
+    for (size_t i = 0; i < single.size(); ++i) {
+      const Factor& f = single[i];
+      const bool pair = !f.is_constraint() && i + 1 < single.size() &&
+                        !single[i + 1].is_constraint() && single[i + 1].blocks == f.blocks;
+      if (!pair) {
+        factors.push_back(f);
+        continue;
+      }
+      Eigen::MatrixXd noise = Eigen::MatrixXd::Zero(6, 6);
+      noise.topLeftCorner<3, 3>() = 1e-6 * within;
+      noise.bottomRightCorner<3, 3>() = 2e-6 * within;
+      if (coupled) {
+        noise.topRightCorner<3, 3>() = 0.2e-6 * Eigen::Matrix3d::Identity();
+        noise.bottomLeftCorner<3, 3>() = 0.2e-6 * Eigen::Matrix3d::Identity();
+      }
+      factors.push_back(
+          {std::make_shared<StackedResidual>(std::vector<std::shared_ptr<const ResidualFunction>>{
+               single[i].residual, single[i + 1].residual}),
+           f.blocks, noise, f.name});
+      ++i;
+    }
+    CheckAgainstSparse(g, factors, truth);
+  }
+}
+
 TEST_CASE("reduced solver: a loop's closing constraint is solved as rows, a repeated one left out",
           "[interp]") {
   // The four-bar's joints form a tree; `coupler.end == rocker.pin` closes the loop (two rows:
@@ -142,10 +181,12 @@ TEST_CASE("reduced solver: the fit analysis on the parameters is the whole state
     Values truth;
     std::vector<Factor> factors = testing::MeasureEveryPoint(g, kMotion, rng, &truth);
     ReducedEstimate estimate;
-    REQUIRE(SolveReduced(g, factors, g.nominal, PriorVariance(g.blocks, PriorScale{}), &estimate,
-                         {}, &truth)
-                .converged);
     const double extent = 0.5;
+    ReducedOptions analysed;
+    analysed.fit_extent = extent;
+    REQUIRE(SolveReduced(g, factors, g.nominal, PriorVariance(g.blocks, PriorScale{}), &estimate,
+                         analysed, &truth)
+                .converged);
     const FitAnalysis whole = AnalyseFit(factors, g.blocks, estimate.mean, extent);
     FitAnalysis reduced;
     REQUIRE(AnalyseReducedFit(g, factors, estimate.mean, extent, &reduced));
@@ -158,6 +199,12 @@ TEST_CASE("reduced solver: the fit analysis on the parameters is the whole state
     CHECK(reduced.fit.chi2 == Approx(whole.fit.chi2).epsilon(1e-12));
     CHECK(reduced.fit.p_value == Approx(whole.fit.p_value).epsilon(1e-9));
     CHECK(reduced.analysed);
+    // The solve's own analysis, on its last forward kinematics, is the same.
+    REQUIRE(estimate.analysed);
+    CHECK(estimate.analysis.determined == reduced.determined);
+    CHECK(estimate.analysis.model_dof == reduced.model_dof);
+    CHECK(estimate.analysis.fit.dof == reduced.fit.dof);
+    CHECK(estimate.analysis.fit.chi2 == Approx(reduced.fit.chi2).epsilon(1e-12));
 
     // The last component's measurements left out: where that frees its joint, AnalyseFit answers.
     const int last = g.components.back().block;

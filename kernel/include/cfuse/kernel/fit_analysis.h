@@ -64,13 +64,12 @@ FitAnalysis AnalyseFit(const std::vector<Factor>& factors, const std::vector<Blo
 
 // The dense counts behind AnalyseFit, in any coordinates of the state (those of a
 // parametrisation that holds some constraints by construction, as interp's reduced solver's):
-// `constraints` the other constraints' rows, each normalised, and `measurements` the whitened
-// measurement rows, their columns scaled as AnalyseFit scales them. Sets the degrees of freedom
-// the constraints leave and how many of them the measurements determine, and returns a basis
-// of the rest (columns in these coordinates, empty when everything is determined).
+// `constraints` the other constraints' rows, each normalised, and `information` the whitened
+// measurements' information MᵀM, its columns and rows scaled as AnalyseFit scales them. Sets the
+// degrees of freedom the constraints leave and how many of them the measurements determine, and
+// returns a basis of the rest (columns in these coordinates, empty when everything is determined).
 Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
-                               const Eigen::MatrixXd& measurements, int* model_dof,
-                               int* determined);
+                               const Eigen::MatrixXd& information, int* model_dof, int* determined);
 
 // Whether `direction` (tangent coordinates) moves a quantity with gradient `gradient` (1 x
 // state_dim): |gradient · d| above `tolerance` x |gradient| for some unit column d of `basis`.
