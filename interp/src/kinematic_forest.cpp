@@ -111,10 +111,10 @@ std::string BuildForest(const ConstraintGraph& g, ForestRules rules, Forest* for
 }
 
 void LayoutParameters(const ConstraintGraph& g, double position_sigma, double rotation_sigma,
-                      Forest* f) {
+                      Forest* f, bool names) {
   const int nc = static_cast<int>(g.components.size());
-  auto add = [&](const std::string& name, double sigma) {
-    f->names.push_back(name);
+  auto add = [&](const auto& name, double sigma) {
+    if (names) f->names.push_back(name());
     f->prior_sigma.push_back(sigma);
     f->lower.push_back(-kInf);
     f->upper.push_back(kInf);
@@ -125,8 +125,8 @@ void LayoutParameters(const ConstraintGraph& g, double position_sigma, double ro
     if (f->parent_joint[c] >= 0 || f->fixed[c]) continue;
     const std::string& n = g.components[c].name;
     f->root_parameter[c] = f->size;
-    for (const char* axis : {"rx", "ry", "rz"}) add(n + "." + axis, rotation_sigma);
-    for (const char* axis : {"tx", "ty", "tz"}) add(n + "." + axis, position_sigma);
+    for (const char* axis : {"rx", "ry", "rz"}) add([&] { return n + "." + axis; }, rotation_sigma);
+    for (const char* axis : {"tx", "ty", "tz"}) add([&] { return n + "." + axis; }, position_sigma);
   }
   const int nj = static_cast<int>(g.joints.size());
   f->joint_parameter.assign(nj, -1);
@@ -152,7 +152,7 @@ void LayoutParameters(const ConstraintGraph& g, double position_sigma, double ro
     if (count == 0) continue;
     f->joint_parameter[j] = f->size;
     for (const JointModel::Parameter& parameter : model.Parameters()) {
-      add(*parameter.suffix ? joint.name + "." + parameter.suffix : joint.name,
+      add([&] { return *parameter.suffix ? joint.name + "." + parameter.suffix : joint.name; },
           parameter.angle ? rotation_sigma : position_sigma);
     }
   }

@@ -64,9 +64,9 @@ enum class ForestRules {
 // joint in the way.
 std::string BuildForest(const ConstraintGraph& g, ForestRules rules, Forest* forest);
 
-// The parameters' layout, names, prior standard deviations and bounds.
+// The parameters' layout, names (unless not wanted), prior standard deviations and bounds.
 void LayoutParameters(const ConstraintGraph& g, double position_sigma, double rotation_sigma,
-                      Forest* f);
+                      Forest* f, bool names = true);
 
 // The configuration: root poses, joint variables and the motions of multi-parameter joints.
 struct Configuration {

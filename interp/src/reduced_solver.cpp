@@ -42,12 +42,40 @@ std::string Structure(const ConstraintGraph& graph, Forest* forest) {
   return "";
 }
 
+// Why the factors' slacks cannot be eliminated (each must belong to one inequality of one row,
+// which it is eliminated with), or "".
+std::string SlackUse(const ConstraintGraph& graph, const std::vector<Factor>& factors) {
+  std::vector<int> uses(graph.blocks.size(), 0);
+  for (const Factor& f : factors) {
+    for (int b : f.blocks) {
+      if (b < 0 || b >= static_cast<int>(graph.blocks.size())) return "a factor off the graph";
+      if (graph.blocks[b].kind != BlockKind::kSlack) continue;
+      if (!f.is_constraint() || f.residual->dimension() != 1 || ++uses[b] > 1) {
+        return "a slack outside a single one-row inequality";
+      }
+    }
+  }
+  return "";
+}
+
+// The parameters of a forest of the graph, as LayoutParameters lays them out.
+int ParameterCount(const ConstraintGraph& graph, const Forest& f) {
+  int count = 0;
+  for (size_t c = 0; c < graph.components.size(); ++c) {
+    if (f.parent_joint[c] < 0 && !f.fixed[c]) count += 6;
+  }
+  for (const Joint& j : graph.joints) {
+    if (!j.mimic) count += ModelOf(j.type).ParameterCount();
+  }
+  return count;
+}
+
 // Structure's answer, and the reduction in `out` (each parameter's prior_sigma `length` for a
 // length, 1 for an angle: its column scale).
 std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length = 1.0) {
   Reduction r;
   if (std::string why = Structure(graph, &r.forest); !why.empty()) return why;
-  LayoutParameters(graph, length, 1.0, &r.forest);  // not a prior: the poses' are
+  LayoutParameters(graph, length, 1.0, &r.forest, false);  // not a prior: the poses' are
   r.influence = Influences(graph, r.forest);
   r.block_parameters.resize(graph.blocks.size());
   for (size_t c = 0; c < graph.components.size(); ++c) {
@@ -148,12 +176,13 @@ struct Problem {
   int eliminated_slacks = 0;
 };
 
-// The problem of `factors` on the graph's forest (ReducedUnsupported empty), its parameters'
-// prior_sigma `length` for a length and 1 for an angle (the fit analysis's column scale).
-void Prepare(const ConstraintGraph& graph, const std::vector<Factor>& factors, double length,
-             Problem* out) {
+// The problem of `factors` on the graph's forest, its parameters' prior_sigma `length` for a
+// length and 1 for an angle (the fit analysis's column scale); or ReducedUnsupported's answer.
+std::string Prepare(const ConstraintGraph& graph, const std::vector<Factor>& factors, double length,
+                    Problem* out) {
   Problem& p = *out;
-  Reduce(graph, &p.red, length);
+  if (std::string why = Reduce(graph, &p.red, length); !why.empty()) return why;
+  if (std::string why = SlackUse(graph, factors); !why.empty()) return why;
   const Forest& forest = p.red.forest;
   p.maps.assign(factors.size(), FactorMap{});
   for (size_t i = 0; i < factors.size(); ++i) {
@@ -196,6 +225,7 @@ void Prepare(const ConstraintGraph& graph, const std::vector<Factor>& factors, d
       p.constraint_rows += f.residual->dimension();
     }
   }
+  return "";
 }
 
 // Buffers of the per-factor and per-pose work, reused across iterations. The products are
@@ -348,51 +378,32 @@ bool AnalyseAt(const ConstraintGraph& graph, const std::vector<Factor>& factors,
   return true;
 }
 
-Eigen::Vector3d RotationVector(const Eigen::Matrix3d& R) {
-  const Eigen::AngleAxisd aa(R);
-  return aa.angle() * aa.axis();
-}
-
 }  // namespace
 
-std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<Factor>& factors) {
-  if (std::string why = Structure(graph, nullptr); !why.empty()) return why;
-  // Each slack must belong to one inequality of one row, which it is eliminated with.
-  std::vector<int> uses(graph.blocks.size(), 0);
-  for (const Factor& f : factors) {
-    for (int b : f.blocks) {
-      if (b < 0 || b >= static_cast<int>(graph.blocks.size())) return "a factor off the graph";
-      if (graph.blocks[b].kind != BlockKind::kSlack) continue;
-      if (!f.is_constraint() || f.residual->dimension() != 1 || ++uses[b] > 1) {
-        return "a slack outside a single one-row inequality";
-      }
-    }
-  }
+std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                               int* parameters) {
+  Forest forest;
+  if (std::string why = Structure(graph, &forest); !why.empty()) return why;
+  if (std::string why = SlackUse(graph, factors); !why.empty()) return why;
+  if (parameters) *parameters = ParameterCount(graph, forest);
   return "";
 }
 
 int ReducedParameters(const ConstraintGraph& graph) {
-  Forest f;
-  if (!Structure(graph, &f).empty()) return 0;
-  int count = 0;  // as LayoutParameters lays them out, without their names
-  for (size_t c = 0; c < graph.components.size(); ++c) {
-    if (f.parent_joint[c] < 0 && !f.fixed[c]) count += 6;
-  }
-  for (const Joint& j : graph.joints) {
-    if (!j.mimic) count += ModelOf(j.type).ParameterCount();
-  }
-  return count;
+  Forest forest;
+  return Structure(graph, &forest).empty() ? ParameterCount(graph, forest) : 0;
 }
 
 ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                             const Values& prior_mean, const Eigen::VectorXd& prior_variance,
                             ReducedEstimate* estimate, const ReducedOptions& options,
                             const Values* initial, const std::vector<std::pair<int, int>>* pairs) {
-  if (const std::string why = ReducedUnsupported(graph, factors); !why.empty()) {
+  Problem problem;
+  if (const std::string why =
+          Prepare(graph, factors, options.fit_extent > 0 ? options.fit_extent : 1.0, &problem);
+      !why.empty()) {
     CFUSE_CHECK_MSG(false, why);
   }
-  Problem problem;
-  Prepare(graph, factors, options.fit_extent > 0 ? options.fit_extent : 1.0, &problem);
   const Reduction& red = problem.red;
   std::vector<FactorMap>& maps = problem.maps;
   const Forest& forest = red.forest;
@@ -438,9 +449,9 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       const Rigid3d& pose = values.poses[block.index];
       const Rigid3d& pose0 = prior_mean.poses[block.index];
       Vector6 delta;
-      delta.head<3>() = RotationVector(pose0.RotationMatrix().transpose() * pose.RotationMatrix());
+      delta.head<3>() = LogSO3(pose0.rotation.conjugate() * pose.rotation);
       delta.tail<3>() = pose.translation - pose0.translation;
-      const Eigen::Matrix3d D = RightJacobianSO3(delta.head<3>()).inverse();  // and I on t
+      const Eigen::Matrix3d D = InverseRightJacobianSO3(delta.head<3>());  // and I on t
       const Vector6 w = prior_variance.segment<6>(block.tangent_offset).cwiseInverse();
       Matrix6& information = s.information[b];
       information.setZero();
@@ -653,9 +664,8 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
 
 bool AnalyseReducedFit(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                        const Values& values, double extent, FitAnalysis* out) {
-  if (!ReducedUnsupported(graph, factors).empty()) return false;
   Problem problem;
-  Prepare(graph, factors, extent, &problem);
+  if (!Prepare(graph, factors, extent, &problem).empty()) return false;
   const Forest& forest = problem.red.forest;
   Values at = values;
   Eigen::MatrixXd G;

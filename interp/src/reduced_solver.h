@@ -74,8 +74,10 @@ struct ReducedEstimate {
 
 // Empty when the graph's joints can be eliminated for these factors: every component rigid,
 // a forest under ForestRules::kJointsFirst with at least one joint, the factors' blocks poses
-// and slacks only, each slack in one one-row inequality. Else why not.
-std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<Factor>& factors);
+// and slacks only, each slack in one one-row inequality; `parameters` (if given) then gets
+// ReducedParameters. Else why not.
+std::string ReducedUnsupported(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                               int* parameters = nullptr);
 
 // The parameters `SolveReduced` would work on: root poses and joint variables (0 when
 // unsupported).

@@ -358,8 +358,9 @@ bool SolveReducedFirst(const ConstraintGraph& graph, const std::vector<Factor>& 
                        const SequenceOptions& sequence, const SolveOptions& options,
                        Solution* solution, Fit* fit, bool* analysed) {
   *analysed = false;
-  if (internal::ReducedParameters(graph) >= options.reduced_below ||
-      !internal::ReducedUnsupported(graph, factors).empty()) {
+  int parameters = 0;
+  if (!internal::ReducedUnsupported(graph, factors, &parameters).empty() ||
+      parameters >= options.reduced_below) {
     return false;
   }
   internal::ReducedOptions reduced;

@@ -103,8 +103,9 @@ int FreeUnderConstraints(const std::vector<Block>& blocks,
 
 }  // namespace
 
-// The constraints' null space N by SVD, then the eigenvalues of Nᵀ I N, and its eigenvectors
-// only when some are negligible (the usual answer is that none is, at a third of the cost).
+// The constraints' null space N by SVD, then the eigenvalues of Nᵀ I N (when a bound from its
+// Cholesky factor cannot show them all above the tolerance), and its eigenvectors only when
+// some are negligible.
 Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
                                const Eigen::MatrixXd& information, int* model_dof,
                                int* determined) {
@@ -129,6 +130,19 @@ Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
     while (free < lambda.size() && !(lambda[free] > kInformationTolerance * largest)) ++free;
     return free;
   };
+  // Every eigenvalue is above the tolerance, without computing one, when λmin ≥ 1 / tr(A⁻¹)
+  // is above it times tr(A) ≥ λmax; tr(A⁻¹) = ‖L⁻¹‖² from A's Cholesky factor.
+  const Eigen::LLT<Eigen::MatrixXd> llt(reduced);
+  if (llt.info() == Eigen::Success) {
+    const double inverse_trace =
+        llt.matrixL()
+            .solve(Eigen::MatrixXd::Identity(reduced.rows(), reduced.cols()))
+            .squaredNorm();
+    if (1 / inverse_trace > kInformationTolerance * reduced.trace()) {
+      *determined = *model_dof;
+      return Eigen::MatrixXd(n, 0);
+    }
+  }
   const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> values(reduced, Eigen::EigenvaluesOnly);
   *determined = *model_dof - count_free(values.eigenvalues());
   if (*determined == *model_dof) return Eigen::MatrixXd(n, 0);

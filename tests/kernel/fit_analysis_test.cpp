@@ -4,6 +4,7 @@
 // state too large to name its free directions, and MovesAlong.
 #include "cfuse/kernel/fit_analysis.h"
 
+#include <Eigen/QR>
 #include <Eigen/SVD>
 #include <catch2/catch.hpp>
 #include <cmath>
@@ -293,6 +294,44 @@ TEST_CASE("fit analysis: the sparse counts agree with the dense decompositions",
   }
   CHECK(with_free > 0);
   CHECK(without > 0);
+}
+
+// FreeDirections on an information matrix whose eigenvalues are set: the directions left free
+// are those at or below 1e-12 of the largest, found whether the quick bound decides (well
+// conditioned) or the eigenvalues do (one eigenvalue just above or just below the tolerance),
+// with and without a constraint row.
+TEST_CASE("fit analysis: FreeDirections counts the eigenvalues at the tolerance", "[kernel]") {
+  std::mt19937 rng(3);
+  std::normal_distribution<double> n(0, 1);
+  Eigen::MatrixXd random(6, 6);
+  for (int i = 0; i < random.size(); ++i) random.data()[i] = n(rng);
+  const Eigen::MatrixXd Q = Eigen::HouseholderQR<Eigen::MatrixXd>(random).householderQ();
+  const auto information = [&](double smallest) {
+    Eigen::VectorXd lambda(6);
+    lambda << 1, 0.5, 0.3, 2, 0.8, smallest;
+    return Eigen::MatrixXd(Q * lambda.asDiagonal() * Q.transpose());
+  };
+  const Eigen::MatrixXd none(0, 6);
+  for (const auto& [smallest, free] :
+       std::vector<std::pair<double, int>>{{0.1, 0}, {1e-9, 0}, {1e-11, 0}, {1e-13, 1}, {0, 1}}) {
+    INFO("smallest eigenvalue " << smallest);
+    int model_dof = -1, determined = -1;
+    const Eigen::MatrixXd directions =
+        FreeDirections(none, information(smallest), &model_dof, &determined);
+    CHECK(model_dof == 6);
+    CHECK(determined == 6 - free);
+    REQUIRE(directions.cols() == free);
+    if (free == 1) CHECK(std::abs(directions.col(0).dot(Q.col(5))) == Approx(1).epsilon(1e-6));
+    // A constraint row along the free direction takes it from the model: nothing left free.
+    const Eigen::MatrixXd along = Q.col(5).transpose();
+    CHECK(FreeDirections(along, information(smallest), &model_dof, &determined).cols() == 0);
+    CHECK(model_dof == 5);
+    CHECK(determined == 5);
+    // One across it leaves it free.
+    const Eigen::MatrixXd across = Q.col(0).transpose();
+    CHECK(FreeDirections(across, information(smallest), &model_dof, &determined).cols() == free);
+    CHECK(determined == 5 - free);
+  }
 }
 
 TEST_CASE("fit analysis: MovesAlong and its tolerance", "[kernel]") {

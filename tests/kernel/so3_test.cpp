@@ -28,6 +28,35 @@ TEST_CASE("so3: Exp matches Eigen's angle-axis over the whole range", "[kernel]"
   }
 }
 
+TEST_CASE("so3: InverseRightJacobianSO3 inverts the right Jacobian up to near a full turn",
+          "[kernel]") {
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> u(-1, 1), angle(0, 1.9 * M_PI);
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    const double theta = i == 0 ? 0.0 : i == 1 ? 1e-7 : i == 2 ? M_PI : angle(rng);
+    const Eigen::Vector3d w = axis * theta;
+    const Eigen::Matrix3d product = InverseRightJacobianSO3(w) * RightJacobianSO3(w);
+    INFO("angle " << theta);
+    CHECK((product - Eigen::Matrix3d::Identity()).norm() < 1e-10);
+  }
+}
+
+TEST_CASE("so3: LogSO3 of a quaternion inverts Exp, on either sign of the quaternion", "[kernel]") {
+  std::mt19937 rng(8);
+  std::uniform_real_distribution<double> u(-1, 1), angle(0, M_PI);
+  for (int i = 0; i < 300; ++i) {
+    const Eigen::Vector3d axis = Eigen::Vector3d(u(rng), u(rng), u(rng)).normalized();
+    const double theta = i == 0 ? 0.0 : i == 1 ? 1e-10 : i == 2 ? M_PI - 1e-9 : angle(rng);
+    const Eigen::Quaterniond q(Eigen::AngleAxisd(theta, axis));
+    const Eigen::Quaterniond minus_q(-q.w(), -q.x(), -q.y(), -q.z());
+    INFO("angle " << theta);
+    CHECK((LogSO3(q) - theta * axis).norm() < 1e-12);
+    CHECK((LogSO3(minus_q) - theta * axis).norm() < 1e-12);
+    CHECK((ExpSO3<double>(LogSO3(q)) - q.toRotationMatrix()).norm() < 1e-12);
+  }
+}
+
 TEST_CASE("so3: the autodiff derivative of Exp at zero is the hat operator", "[kernel]") {
   Vector3<Jet> w;
   for (int i = 0; i < 3; ++i) w[i] = Jet(0.0, kJetMaxDerivatives, i);

@@ -11,6 +11,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <Eigen/Geometry>
 #include <cmath>
 
 namespace cfuse {
@@ -57,6 +58,26 @@ inline Eigen::Matrix3d RightJacobianSO3(const Eigen::Vector3d& w) {
   const double theta = std::sqrt(theta_sq);
   return Eigen::Matrix3d::Identity() - (1 - std::cos(theta)) / theta_sq * W +
          (theta - std::sin(theta)) / (theta_sq * theta) * W * W;
+}
+
+// Its inverse, in closed form (where the solvers need Jr(w)⁻¹ for every pose of every
+// iteration): Jr(w)⁻¹ = I + ½ [w]x + (1/θ² - cot(θ/2) / (2θ)) [w]x², defined for θ < 2π.
+inline Eigen::Matrix3d InverseRightJacobianSO3(const Eigen::Vector3d& w) {
+  const double theta_sq = w.squaredNorm();
+  const Eigen::Matrix3d W = Hat<double>(w);
+  if (theta_sq < 1e-10) return Eigen::Matrix3d::Identity() + 0.5 * W + W * W / 12.0;
+  const double theta = std::sqrt(theta_sq);
+  const double c = 1 / theta_sq - std::cos(theta / 2) / (2 * theta * std::sin(theta / 2));
+  return Eigen::Matrix3d::Identity() + 0.5 * W + c * W * W;
+}
+
+// Log of a unit quaternion: its rotation vector, of angle in [0, π].
+inline Eigen::Vector3d LogSO3(const Eigen::Quaterniond& q) {
+  const double sign = q.w() < 0 ? -1 : 1;  // q and -q are the same rotation
+  const Eigen::Vector3d v = sign * q.vec();
+  const double w = sign * q.w(), s = v.norm();
+  if (s < 1e-8) return (2 / w) * v;  // 2 atan2(s, w) / s = (2 / w)(1 - O(s²))
+  return (2 * std::atan2(s, w) / s) * v;
 }
 
 // Unit quaternion [w, x, y, z] of a rotation matrix (Shepperd's method: branch on the largest
