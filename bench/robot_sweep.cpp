@@ -2,7 +2,7 @@
 // 5 (docs/benchmarks.md).
 //
 //   robot_sweep MODEL... [--noise 0.001,0.003,0.01] [--trials 50] [--methods
-//   fusion,unreduced,filter,parametric,components,ceres,sparse]
+//   fusion,unreduced,reduced,filter,parametric,components,ceres,sparse]
 //
 // For every MODEL (a URDF or a model file) it writes a model that includes it and fixes three
 // markers on every component (a triangle 6-8 cm across about the component's frame, as a
@@ -16,6 +16,8 @@
 //     between joints, and the NEES (marked ‡) is then each joint's alone, summed;
 //   - unreduced: the same with no joint eliminated (SolveOptions::reduced_below 0): the sparse
 //     solver, then the filter;
+//   - reduced: the same with the joints eliminated at any size (reduced_below INT_MAX): where
+//     the dense reduced solver stops paying;
 //   - filter: the same with the sequential filter alone (SolveOptions::sparse_from_dim INT_MAX),
 //     as `solve` ran before the sparse path;
 //   - parametric: Lowe's estimator on root poses and joint variables (cfuse/interp/parametric.h);
@@ -249,7 +251,8 @@ int Run(int argc, char** argv) {
   int first = 0;
   app.add_option("--first", first, "first trial (seed 100 + first)");
   app.add_option("--methods", methods,
-                 "fusion, unreduced, filter, parametric, components, ceres (where Ceres was found "
+                 "fusion, unreduced, reduced, filter, parametric, components, ceres (where Ceres "
+                 "was found "
                  "at build time), sparse");
   app.add_flag("--verbose", verbose, "list the trials that did not converge");
   CLI11_PARSE(app, argc, argv);
@@ -257,7 +260,7 @@ int Run(int argc, char** argv) {
 #ifdef CFUSE_HAVE_CERES
     if (m == "ceres") continue;
 #endif
-    if (m != "fusion" && m != "unreduced" && m != "filter" && m != "parametric" &&
+    if (m != "fusion" && m != "unreduced" && m != "reduced" && m != "filter" && m != "parametric" &&
         m != "components" && m != "sparse") {
       throw std::invalid_argument("unknown method '" + m + "'");
     }
@@ -341,6 +344,7 @@ int Run(int argc, char** argv) {
             options.use_constraints_between_components = method != "components";
             if (method == "filter") options.sparse_from_dim = std::numeric_limits<int>::max();
             if (method == "unreduced") options.reduced_below = 0;
+            if (method == "reduced") options.reduced_below = std::numeric_limits<int>::max();
             Solution s = Solve(g, sim.measurements, options);
             converged = s.summary.converged;
             estimate = std::move(s.state);

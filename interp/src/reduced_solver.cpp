@@ -12,6 +12,7 @@
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/jet.h"
 #include "cfuse/kernel/so3.h"
+#include "cfuse/kernel/triangular.h"
 #include "kinematic_forest.h"
 
 namespace cfuse::internal {
@@ -88,22 +89,6 @@ std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length =
   return "";
 }
 
-// L⁻¹ of a lower-triangular L, by forward substitution (a general triangular solve's blocking
-// costs more than the arithmetic at a marker's or a robot's few rows).
-Eigen::MatrixXd LowerInverse(const Eigen::MatrixXd& L) {
-  const Eigen::Index n = L.rows();
-  Eigen::MatrixXd X = Eigen::MatrixXd::Zero(n, n);
-  for (Eigen::Index j = 0; j < n; ++j) {
-    X(j, j) = 1 / L(j, j);
-    for (Eigen::Index i = j + 1; i < n; ++i) {
-      double sum = 0;
-      for (Eigen::Index k = j; k < i; ++k) sum += L(i, k) * X(k, j);
-      X(i, j) = -sum / L(i, i);
-    }
-  }
-  return X;
-}
-
 // W = L⁻¹ (R = L Lᵀ) by R's diagonal blocks, as (first row, W's block); false when R is not
 // positive definite.
 bool Whitening(const Eigen::MatrixXd& R, std::vector<std::pair<int, Eigen::MatrixXd>>* out) {
@@ -121,7 +106,7 @@ bool Whitening(const Eigen::MatrixXd& R, std::vector<std::pair<int, Eigen::Matri
     }
     const Eigen::LLT<Eigen::MatrixXd> llt(R.block(first, first, end - first, end - first));
     if (llt.info() != Eigen::Success) return false;
-    out->emplace_back(static_cast<int>(first), LowerInverse(llt.matrixLLT()));
+    out->emplace_back(static_cast<int>(first), LowerTriangularInverse(llt.matrixLLT()));
     first = end;
   }
   return true;
@@ -532,7 +517,7 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       break;
     }
     // H⁻¹ = Linvᵀ Linv, for the parameters' variances (the step test) and the covariance.
-    Linv = LowerInverse(llt.matrixLLT());
+    Linv = LowerTriangularInverse(llt.matrixLLT());
     const Eigen::VectorXd free_step = -llt.solve(g);
     Eigen::VectorXd step = free_step;
     Eigen::VectorXd variance_z = Linv.colwise().squaredNorm().transpose();

@@ -10,6 +10,7 @@
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
 #include "cfuse/kernel/svd.h"
+#include "cfuse/kernel/triangular.h"
 
 namespace cfuse {
 namespace {
@@ -134,10 +135,7 @@ Eigen::MatrixXd FreeDirections(const Eigen::MatrixXd& constraints,
   // is above it times tr(A) ≥ λmax; tr(A⁻¹) = ‖L⁻¹‖² from A's Cholesky factor.
   const Eigen::LLT<Eigen::MatrixXd> llt(reduced);
   if (llt.info() == Eigen::Success) {
-    const double inverse_trace =
-        llt.matrixL()
-            .solve(Eigen::MatrixXd::Identity(reduced.rows(), reduced.cols()))
-            .squaredNorm();
+    const double inverse_trace = LowerTriangularInverse(llt.matrixLLT()).squaredNorm();
     if (1 / inverse_trace > kInformationTolerance * reduced.trace()) {
       *determined = *model_dof;
       return Eigen::MatrixXd(n, 0);

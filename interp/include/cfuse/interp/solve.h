@@ -84,10 +84,10 @@ struct SolveOptions {
   // A model with joints is tried first with the joints of its kinematic forest eliminated
   // (interp/src/reduced_solver.h) when that leaves fewer than this many parameters (root
   // poses and joint variables): the sparse solver's answer at about the parametric
-  // form's cost, kept on the same conditions. Dense in those parameters: a humanoid's 57 are
-  // solved faster so than by the sparse solver, two humanoids' 114 slower (docs/benchmarks.md,
-  // "Scale"). 0: never.
-  int reduced_below = 100;
+  // form's cost, kept on the same conditions. Dense in those parameters: two humanoids' 114
+  // are solved 2.4 times faster so than by the sparse solver, three humanoids' 171 1.6 times
+  // slower (docs/benchmarks.md, "Scale"). 0: never.
+  int reduced_below = 128;
 };
 
 // Which estimator answered a labelled solve.
