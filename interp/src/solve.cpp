@@ -253,7 +253,8 @@ std::vector<std::string> UndeterminedNames(const ConstraintGraph& graph, const S
 // covariance, NaN elsewhere.
 void StoreReported(const ConstraintGraph& graph, const SparseEstimate& estimate,
                    const std::vector<std::pair<int, int>>& pairs, GaussianState* state) {
-  state->covariance.setConstant(NAN);
+  const int n = graph.tangent_dim();
+  state->covariance.setConstant(n, n, NAN);
   auto put = [&](int a, int b) {
     const Block &ba = graph.blocks[a], &bb = graph.blocks[b];
     const Eigen::MatrixXd c = estimate.Covariance(a, b);
@@ -427,7 +428,13 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     }
     return state;
   };
-  solution->state = prior(initial);
+  // The prior's blocks, variances and groups, as a batch answer keeps them; its dense covariance
+  // only where the filter runs (below): for a large model that alone cost more than the
+  // reduced solve.
+  solution->state = GaussianState{};
+  solution->state.blocks = graph.blocks;
+  solution->state.prior_variance = PriorVariance(graph.blocks, scale);
+  solution->state.groups = CorrelationGroups(static_cast<int>(graph.blocks.size()));
   StackedNames stacked;
   std::vector<Factor> factors =
       SolveFactors(graph, set, options, labels, initial, &solution->invalid, &stacked);
@@ -452,7 +459,10 @@ void SolveLabelled(const ConstraintGraph& graph, const MeasurementSet& set,
     }
   }
   const bool batch_answered = solution->estimator != Estimator::kFilter;
-  if (!batch_answered) solution->summary = FuseSequence(factors, &solution->state, sequence);
+  if (!batch_answered) {
+    solution->state = prior(initial);
+    solution->summary = FuseSequence(factors, &solution->state, sequence);
+  }
   // A converged estimate that the measurements do not fit is a local minimum as surely as an
   // unconverged one is a failure: both get the other starts, and the better fit is kept.
   const auto chi2 = [&](const GaussianState& state) {
