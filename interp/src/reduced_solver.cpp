@@ -104,9 +104,16 @@ bool Whitening(const Eigen::MatrixXd& R, std::vector<std::pair<int, Eigen::Matri
         }
       }
     }
-    const Eigen::LLT<Eigen::MatrixXd> llt(R.block(first, first, end - first, end - first));
-    if (llt.info() != Eigen::Success) return false;
-    out->emplace_back(static_cast<int>(first), LowerTriangularInverse(llt.matrixLLT()));
+    if (end - first == 3) {  // a 3D marker's, at its fixed size
+      const Eigen::LLT<Eigen::Matrix3d> llt(R.block<3, 3>(first, first));
+      if (llt.info() != Eigen::Success) return false;
+      const Eigen::Matrix3d L = llt.matrixL();
+      out->emplace_back(static_cast<int>(first), Eigen::MatrixXd(L.inverse()));
+    } else {
+      const Eigen::LLT<Eigen::MatrixXd> llt(R.block(first, first, end - first, end - first));
+      if (llt.info() != Eigen::Success) return false;
+      out->emplace_back(static_cast<int>(first), LowerTriangularInverse(llt.matrixLLT()));
+    }
     first = end;
   }
   return true;
