@@ -85,9 +85,10 @@ struct SolveOptions {
   // (interp/src/reduced_solver.h) when that leaves fewer than this many parameters (root
   // poses and joint variables): the sparse solver's answer at about the parametric
   // form's cost, kept on the same conditions. Dense in those parameters: two humanoids' 114
-  // are solved 2.4 times faster so than by the sparse solver, three humanoids' 171 1.6 times
-  // slower (docs/benchmarks.md, "Scale"). 0: never.
-  int reduced_below = 128;
+  // are solved 2.7 times faster so than by the sparse solver, four humanoids' 228 1.4-4 times,
+  // six humanoids' 342 about as fast, eight humanoids' 456 1.5 times slower
+  // (docs/benchmarks.md, "Scale"). 0: never.
+  int reduced_below = 256;
 };
 
 // Which estimator answered a labelled solve.
