@@ -296,6 +296,8 @@ int Run(int argc, char** argv) {
         sim.measurements.points = std::move(markers);
         sims.push_back(std::move(sim));
       }
+      // The methods that run on this model, each checked once.
+      std::vector<std::string> run;
       for (const std::string& method : Split(methods)) {
         if (method == "parametric" && !why.empty()) {
           fmt::print("| {} | {} | {:g} mm | {} | no parametric form: {} | | | | | |\n", g.name,
@@ -316,9 +318,25 @@ int Run(int argc, char** argv) {
                 "the Ceres peer's kinematics miss the model's by {:.3g} m on {}", error, g.name));
           }
         }
+#else
+        if (method == "ceres") {
+          fmt::print("| {} | {} | {:g} mm | {} | not built: Ceres was not found | | | | | |\n",
+                     g.name, joints, 1000 * noise, method);
+          continue;
+        }
 #endif
-        Cell cell;
-        for (const Simulation& sim : sims) {
+        run.push_back(method);
+      }
+      // Trial by trial, every method in turn on the same data, first to last and then last to
+      // first: a method's time then does not depend on where it comes in the run (the
+      // allocator's history, the caches, the machine's load).
+      std::vector<Cell> cells(run.size());
+      for (size_t t = 0; t < sims.size(); ++t) {
+        const Simulation& sim = sims[t];
+        for (size_t turn = 0; turn < run.size(); ++turn) {
+          const size_t mi = t % 2 == 0 ? turn : run.size() - 1 - turn;
+          const std::string& method = run[mi];
+          Cell& cell = cells[mi];
           const auto start = std::chrono::steady_clock::now();
           GaussianState estimate;
           SparseRobot sparse;
@@ -356,6 +374,10 @@ int Run(int argc, char** argv) {
           if (method == "sparse") estimate = MakePrior(g.blocks, sparse.mean, PriorScale{});
           Score(g, sim.truth, estimate, converged, ms, noise, &cell, with_covariance);
         }
+      }
+      for (size_t mi = 0; mi < run.size(); ++mi) {
+        const std::string& method = run[mi];
+        const Cell& cell = cells[mi];
         auto rms = [](double sq, int n) {
           return n ? fmt::format("{:.3f}", std::sqrt(sq / n)) : std::string("—");
         };

@@ -89,10 +89,21 @@ std::string Reduce(const ConstraintGraph& graph, Reduction* out, double length =
   return "";
 }
 
-// W = L⁻¹ (R = L Lᵀ) by R's diagonal blocks, as (first row, W's block); false when R is not
-// positive definite.
-bool Whitening(const Eigen::MatrixXd& R, std::vector<std::pair<int, Eigen::MatrixXd>>* out) {
-  out->clear();
+// W = L⁻¹ (R = L Lᵀ) by R's diagonal blocks: each block's first row and size, and its W
+// (lower triangular, column-major) at `offset` in one array, so that a factor's whitening costs
+// no allocation per marker.
+struct WhiteningBlock {
+  int first, size, offset;
+};
+struct Whitener {
+  std::vector<WhiteningBlock> blocks;
+  std::vector<double> values;
+};
+
+// R's whitening in `out`; false when R is not positive definite.
+bool Whitening(const Eigen::MatrixXd& R, Whitener* out) {
+  out->blocks.clear();
+  out->values.clear();
   const Eigen::Index n = R.rows();
   for (Eigen::Index first = 0; first < n;) {
     Eigen::Index end = first + 1;  // grown until nothing outside [first, end) couples to it
@@ -104,24 +115,29 @@ bool Whitening(const Eigen::MatrixXd& R, std::vector<std::pair<int, Eigen::Matri
         }
       }
     }
-    if (end - first == 3) {  // a 3D marker's, at its fixed size
+    const auto size = static_cast<int>(end - first);
+    const auto offset = static_cast<int>(out->values.size());
+    out->blocks.push_back({static_cast<int>(first), size, offset});
+    out->values.resize(out->values.size() + static_cast<size_t>(size) * size);
+    double* w = out->values.data() + offset;
+    if (size == 1) {  // isotropic noise: every row its own
+      if (!(R(first, first) > 0)) return false;
+      w[0] = 1 / std::sqrt(R(first, first));
+    } else if (size == 3) {  // a 3D marker's, at its fixed size
       const Eigen::LLT<Eigen::Matrix3d> llt(R.block<3, 3>(first, first));
       if (llt.info() != Eigen::Success) return false;
       const Eigen::Matrix3d L = llt.matrixL();
-      out->emplace_back(static_cast<int>(first), Eigen::MatrixXd(L.inverse()));
+      Eigen::Map<Eigen::Matrix3d> W(w);
+      W = L.inverse();
     } else {
-      const Eigen::LLT<Eigen::MatrixXd> llt(R.block(first, first, end - first, end - first));
+      const Eigen::LLT<Eigen::MatrixXd> llt(R.block(first, first, size, size));
       if (llt.info() != Eigen::Success) return false;
-      out->emplace_back(static_cast<int>(first), LowerTriangularInverse(llt.matrixLLT()));
+      Eigen::Map<Eigen::MatrixXd> W(w, size, size);
+      W = LowerTriangularInverse(llt.matrixLLT());
     }
     first = end;
   }
   return true;
-}
-
-// Whether `residual` is graph constraint k's.
-bool IsConstraint(const ConstraintGraph& graph, int k, const Factor& f) {
-  return k >= 0 && graph.constraints[k].residual.get() == f.residual.get();
 }
 
 // Per factor: how it enters the reduced problem.
@@ -141,8 +157,8 @@ struct FactorMap {
   std::vector<int> parameters;  // those its blocks (but an eliminated slack) depend on
   std::vector<int> first_column;
   // Measurements: W = Lw⁻¹ (R = Lw Lwᵀ) by R's diagonal blocks (a stacked factor's markers,
-  // each its own), as (first row, W's block).
-  std::vector<std::pair<int, Eigen::MatrixXd>> whiten;
+  // each its own).
+  Whitener whiten;
   bool whitened = true;  // false: R not positive definite
 };
 
@@ -160,6 +176,13 @@ void FactorTangent(const ConstraintGraph& graph, const Factor& factor, const Fac
   }
 }
 
+// A graph constraint as Prepare looks it up.
+struct ConstraintUse {
+  const ResidualFunction* residual = nullptr;
+  bool held = false;     // by the forest's construction
+  int limit_joint = -1;  // the forest joint whose limit it is
+};
+
 // What stays fixed over a solve and its fit analysis: the reduction and each factor's map.
 struct Problem {
   Reduction red;
@@ -176,6 +199,21 @@ std::string Prepare(const ConstraintGraph& graph, const std::vector<Factor>& fac
   if (std::string why = Reduce(graph, &p.red, length); !why.empty()) return why;
   if (std::string why = SlackUse(graph, factors); !why.empty()) return why;
   const Forest& forest = p.red.forest;
+  // The graph's constraints by their residual, which Solve's factors share: whether the forest
+  // holds each, and the forest joint whose limit it is (read at the joint variable).
+  std::vector<ConstraintUse> uses(graph.constraints.size());
+  for (size_t k = 0; k < graph.constraints.size(); ++k) {
+    uses[k] = {graph.constraints[k].residual.get(), static_cast<bool>(forest.held[k]), -1};
+  }
+  for (size_t j = 0; j < graph.joints.size(); ++j) {
+    const int k = graph.joints[j].limit_constraint;
+    if (k >= 0 && forest.joint_parameter[forest.leader[j]] >= 0) {
+      uses[k].limit_joint = static_cast<int>(j);
+    }
+  }
+  std::stable_sort(uses.begin(), uses.end(), [](const ConstraintUse& a, const ConstraintUse& b) {
+    return a.residual < b.residual;
+  });
   p.maps.assign(factors.size(), FactorMap{});
   for (size_t i = 0; i < factors.size(); ++i) {
     const Factor& f = factors[i];
@@ -196,18 +234,17 @@ std::string Prepare(const ConstraintGraph& graph, const std::vector<Factor>& fac
       map.whitened = Whitening(f.noise, &map.whiten);
       continue;
     }
-    for (size_t k = 0; k < graph.constraints.size(); ++k) {
-      if (forest.held[k] && IsConstraint(graph, static_cast<int>(k), f)) map.held = true;
-    }
-    for (size_t j = 0; j < graph.joints.size(); ++j) {
-      const int leader_parameter = forest.joint_parameter[forest.leader[j]];
-      if (!IsConstraint(graph, graph.joints[j].limit_constraint, f) || leader_parameter < 0) {
-        continue;
-      }
+    const auto [first, last] = std::equal_range(
+        uses.begin(), uses.end(), ConstraintUse{f.residual.get()},
+        [](const ConstraintUse& a, const ConstraintUse& b) { return a.residual < b.residual; });
+    for (auto use = first; use != last; ++use) {
+      map.held = map.held || use->held;
+      if (use->limit_joint < 0) continue;
+      const int j = use->limit_joint;
       map.limit = dynamic_cast<const JointLimitResidual*>(f.residual.get());
       if (map.limit) {
-        map.limit_joint = static_cast<int>(j);
-        map.parameters = {leader_parameter};
+        map.limit_joint = j;
+        map.parameters = {forest.joint_parameter[forest.leader[j]]};
       }
     }
     if (map.slack_slot >= 0) {
@@ -224,16 +261,14 @@ std::string Prepare(const ConstraintGraph& graph, const std::vector<Factor>& fac
 // small (a marker's rows, a pose's six coordinates), lazily evaluated: a general product's
 // blocking costs more than the arithmetic at these sizes.
 struct Scratch {
-  Eigen::VectorXd r, Wr, Jtr, gb;
-  Eigen::MatrixXd J, Jw, Tf, Jz, JtJ, Hb;
+  Eigen::VectorXd r, Wr, Jtr;
+  Eigen::MatrixXd J, Jw, Tf, Jz, JtJ;
   Eigen::Matrix<double, 6, Eigen::Dynamic> Tb, ITb;  // ProjectPoses's, as wide as the parameters
   std::vector<Matrix6> information;                  // per block, in its own tangent
   std::vector<Vector6> gradient;
 
   Scratch(const ConstraintGraph& graph, int parameters)
-      : gb(parameters),
-        Hb(parameters, parameters),
-        Tb(6, parameters),
+      : Tb(6, parameters),
         ITb(6, parameters),
         information(graph.blocks.size()),
         gradient(graph.blocks.size()) {}
@@ -253,7 +288,8 @@ void Accumulate(const std::vector<int>& p, const Eigen::MatrixXd& J, const Eigen
 }
 
 // Each pose's information and gradient gathered in its tangent (`s`) moved onto the parameters
-// that move it: H(p, p) += Tbᵀ I Tb, g(p) += Tbᵀ v, Tb its rows of G on its parameters p.
+// that move it: H(p, p) += Tbᵀ I Tb, g(p) += Tbᵀ v, Tb its rows of G on its parameters p. H is
+// symmetric: each pose's lower triangle is added (p ascends), and the upper mirrored once.
 void ProjectPoses(const ConstraintGraph& graph, const Reduction& red, const Eigen::MatrixXd& G,
                   Scratch* s, Eigen::MatrixXd* H, Eigen::VectorXd* g) {
   for (size_t b = 0; b < graph.blocks.size(); ++b) {
@@ -265,15 +301,12 @@ void ProjectPoses(const ConstraintGraph& graph, const Reduction& red, const Eige
     auto ITb = s->ITb.leftCols(np);
     for (Eigen::Index k = 0; k < np; ++k) Tb.col(k) = G.block<6, 1>(o, p[k]);
     ITb.noalias() = s->information[b].lazyProduct(Tb);
-    auto Hb = s->Hb.topLeftCorner(np, np);
-    auto gb = s->gb.head(np);
-    Hb.noalias() = Tb.transpose().lazyProduct(ITb);
-    gb.noalias() = Tb.transpose().lazyProduct(s->gradient[b]);
     for (Eigen::Index k = 0; k < np; ++k) {
-      (*g)[p[k]] += gb[k];
-      for (Eigen::Index l = 0; l < np; ++l) (*H)(p[k], p[l]) += Hb(k, l);
+      (*g)[p[k]] += Tb.col(k).dot(s->gradient[b]);
+      for (Eigen::Index l = 0; l <= k; ++l) (*H)(p[k], p[l]) += Tb.col(k).dot(ITb.col(l));
     }
   }
+  H->triangularView<Eigen::StrictlyUpper>() = H->transpose();
 }
 
 // A measurement's whitened rows at `values` (W r, W J in s->Wr, s->Jw), or false where they
@@ -285,12 +318,18 @@ bool Whitened(const ConstraintGraph& graph, const Factor& f, const FactorMap& ma
   s->Jw.resize(s->J.rows(), s->J.cols());
   s->Wr.resize(s->r.size());
   const Eigen::Index columns = s->J.cols();
-  for (const auto& [first, W] : map.whiten) {  // lower triangular, a marker's few rows
-    for (Eigen::Index i = 0; i < W.rows(); ++i) {
+  for (const auto& [first, size, offset] : map.whiten.blocks) {  // a marker's few rows
+    const double* W = map.whiten.values.data() + offset;         // lower, column-major
+    if (size == 1) {
+      s->Jw.row(first) = W[0] * s->J.row(first);
+      s->Wr[first] = W[0] * s->r[first];
+      continue;
+    }
+    for (int i = 0; i < size; ++i) {
       s->Jw.row(first + i).setZero();
       s->Wr[first + i] = 0;
-      for (Eigen::Index k = 0; k <= i; ++k) {
-        const double w = W(i, k);
+      for (int k = 0; k <= i; ++k) {
+        const double w = W[k * size + i];
         for (Eigen::Index c = 0; c < columns; ++c) s->Jw(first + i, c) += w * s->J(first + k, c);
         s->Wr[first + i] += w * s->r[first + k];
       }
@@ -306,20 +345,87 @@ void OnParameters(const ConstraintGraph& graph, const Factor& f, const FactorMap
   s->Jz.noalias() = J * s->Tf;
 }
 
-// The fit analysis of AnalyseReducedFit at `values`, G the poses' derivative there; false
-// when the measurements leave directions free.
-bool AnalyseAt(const ConstraintGraph& graph, const std::vector<Factor>& factors,
-               const Problem& problem, const Values& values, const Eigen::MatrixXd& G, Scratch* s,
-               FitAnalysis* out) {
+// A linearisation's measurement information, as the fit analysis reads it: each pose's in its
+// own tangent, a multi-block measurement's on the parameters, and G there.
+struct Measured {
+  std::vector<Matrix6> poses;
+  Eigen::MatrixXd multi;
+  Eigen::MatrixXd G;
+};
+
+// The measurements' χ² at `values` over their rows (`residuals`), those not finite or without
+// a whitening left out as AnalyseAt leaves them out.
+void Chi2At(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+            const Problem& problem, const Values& values, Scratch* s, double* chi2,
+            int* residuals) {
+  *chi2 = 0;
+  *residuals = 0;
+  for (size_t i = 0; i < factors.size(); ++i) {
+    const Factor& f = factors[i];
+    const FactorMap& map = problem.maps[i];
+    if (f.is_constraint()) continue;
+    EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, &s->r, nullptr);
+    if (!map.whitened || !s->r.allFinite()) continue;
+    for (const auto& [first, size, offset] : map.whiten.blocks) {
+      const double* W = map.whiten.values.data() + offset;  // lower, column-major
+      for (int k = 0; k < size; ++k) {
+        double w_r = 0;
+        for (int l = 0; l <= k; ++l) w_r += W[l * size + k] * s->r[first + l];
+        *chi2 += w_r * w_r;
+      }
+    }
+    *residuals += static_cast<int>(s->r.size());
+  }
+}
+
+// The fit analysis of AnalyseReducedFit at `values` with the measurements' information and
+// the constraint rows C (on the parameters) of a linearisation there or a tenth of a sigma
+// away; false when the measurements leave directions free.
+bool AnalyseFrom(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+                 const Problem& problem, const Values& values, const Measured& measured,
+                 const Eigen::MatrixXd& C, Scratch* s, FitAnalysis* out) {
   const Forest& forest = problem.red.forest;
   const int nz = forest.size;
   FitAnalysis analysis;
   analysis.state_dim = graph.tangent_dim();
+  Chi2At(graph, factors, problem, values, s, &analysis.fit.chi2, &analysis.fit.residuals);
   for (size_t b = 0; b < graph.blocks.size(); ++b) {
-    s->information[b].setZero();
+    s->information[b] = measured.poses[b];
     s->gradient[b].setZero();
   }
-  Eigen::MatrixXd information = Eigen::MatrixXd::Zero(nz, nz), C(problem.constraint_rows, nz);
+  Eigen::MatrixXd information = measured.multi;
+  Eigen::VectorXd unused = Eigen::VectorXd::Zero(nz);
+  ProjectPoses(graph, problem.red, measured.G, s, &information, &unused);
+  // Columns scaled as AnalyseFit scales them: a length in units of the extent, an angle in rad.
+  const Eigen::Map<const Eigen::VectorXd> scale(forest.prior_sigma.data(), nz);
+  Eigen::MatrixXd constraints = C * scale.asDiagonal();
+  int kept = 0;
+  for (Eigen::Index k = 0; k < C.rows(); ++k) {
+    const double norm = constraints.row(k).norm();
+    if (norm > 0) constraints.row(kept++) = constraints.row(k) / norm;
+  }
+  constraints.conservativeResize(kept, nz);
+  const Eigen::MatrixXd scaled = scale.asDiagonal() * information * scale.asDiagonal();
+  if (FreeDirections(constraints, scaled, &analysis.model_dof, &analysis.determined).cols() > 0) {
+    return false;
+  }
+  analysis.fit.dof = std::max(0, analysis.fit.residuals - analysis.determined);
+  analysis.fit.p_value =
+      analysis.fit.dof > 0 ? 1 - ChiSquareCdf(analysis.fit.chi2, analysis.fit.dof) : 1.0;
+  *out = std::move(analysis);
+  return true;
+}
+
+// AnalyseFrom with a linearisation at `values` itself, G the poses' derivative there.
+bool AnalyseAt(const ConstraintGraph& graph, const std::vector<Factor>& factors,
+               const Problem& problem, const Values& values, const Eigen::MatrixXd& G, Scratch* s,
+               FitAnalysis* out) {
+  const int nz = problem.red.forest.size;
+  Measured measured;
+  measured.poses.assign(graph.blocks.size(), Matrix6::Zero());
+  measured.multi.setZero(nz, nz);
+  measured.G = G;
+  Eigen::MatrixXd C(problem.constraint_rows, nz);
   Eigen::VectorXd unused = Eigen::VectorXd::Zero(nz);
   int rows = 0;
   for (size_t i = 0; i < factors.size(); ++i) {
@@ -340,34 +446,14 @@ bool AnalyseAt(const ConstraintGraph& graph, const std::vector<Factor>& factors,
       continue;
     }
     if (!Whitened(graph, f, map, values, s)) continue;
-    analysis.fit.chi2 += s->Wr.squaredNorm();
-    analysis.fit.residuals += static_cast<int>(s->r.size());
     if (f.blocks.size() == 1) {
-      s->information[f.blocks[0]].noalias() += s->Jw.transpose().lazyProduct(s->Jw);
+      measured.poses[f.blocks[0]].noalias() += s->Jw.transpose().lazyProduct(s->Jw);
     } else {
       OnParameters(graph, f, map, s->Jw, G, s);
-      Accumulate(map.parameters, s->Jz, s->Wr, &information, &unused, s);
+      Accumulate(map.parameters, s->Jz, s->Wr, &measured.multi, &unused, s);
     }
   }
-  ProjectPoses(graph, problem.red, G, s, &information, &unused);
-  // Columns scaled as AnalyseFit scales them: a length in units of the extent, an angle in rad.
-  const Eigen::Map<const Eigen::VectorXd> scale(forest.prior_sigma.data(), nz);
-  Eigen::MatrixXd constraints = C.topRows(rows) * scale.asDiagonal();
-  int kept = 0;
-  for (int k = 0; k < rows; ++k) {
-    const double norm = constraints.row(k).norm();
-    if (norm > 0) constraints.row(kept++) = constraints.row(k) / norm;
-  }
-  constraints.conservativeResize(kept, nz);
-  const Eigen::MatrixXd scaled = scale.asDiagonal() * information * scale.asDiagonal();
-  if (FreeDirections(constraints, scaled, &analysis.model_dof, &analysis.determined).cols() > 0) {
-    return false;
-  }
-  analysis.fit.dof = std::max(0, analysis.fit.residuals - analysis.determined);
-  analysis.fit.p_value =
-      analysis.fit.dof > 0 ? 1 - ChiSquareCdf(analysis.fit.chi2, analysis.fit.dof) : 1.0;
-  *out = std::move(analysis);
-  return true;
+  return AnalyseFrom(graph, factors, problem, values, measured, C.topRows(rows), s, out);
 }
 
 }  // namespace
@@ -424,33 +510,58 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
     return true;
   };
 
+  // An eliminated slack moved back onto its row at the new parameters, by Newton's method on
+  // λ alone: the step's linearisation leaves the row off by about the square of λ's step, and
+  // closing it here spares an iteration that would only close it. A row that λ cannot close
+  // (at or past its boundary) keeps the linearised λ.
+  const auto CloseSlack = [&](const Factor& f, const FactorMap& map, Eigen::VectorXd* r) {
+    double& lambda = values.slacks[graph.blocks[f.blocks[map.slack_slot]].index];
+    double last = INFINITY, before = lambda;
+    for (int round = 0; round < 4; ++round) {
+      double c = 0, a_lambda = map.a_lambda;
+      if (map.limit_joint >= 0) {
+        const int j = map.limit_joint;
+        const double q = forest.multiplier[j] * x.q[forest.leader[j]] + forest.offset[j];
+        const Jet v = map.limit->AtValue(Jet(q, JetDerivatives::Zero()),
+                                         Jet(lambda, JetDerivatives::Unit(0)));
+        c = v.value();
+        a_lambda = v.derivatives()[0];
+      } else {  // the chord: the step's own a_λ
+        EvaluateResidual(*f.residual, graph.blocks, f.blocks, values, r, nullptr);
+        c = (*r)[0];
+      }
+      if (!(std::abs(c) > 1e-3 * options.constraint_tolerance)) return;  // closed, or NaN
+      if (!(std::abs(c) < 0.5 * last)) {  // not converging: the last good λ
+        lambda = before;
+        return;
+      }
+      if (!(std::abs(a_lambda) > 1e-12)) return;
+      last = std::abs(c);
+      before = lambda;
+      lambda -= c / a_lambda;
+    }
+  };
+
   Scratch s(graph, nz);
   Eigen::MatrixXd H(nz, nz), C(m, nz), Linv, LinvYt;
-  Eigen::VectorXd g(nz), c(m);
+  Eigen::VectorXd g(nz), c(m), g_unused(nz);
+  // The last linearisation's measurement information, which a converged answer's fit analysis
+  // reads: a step of a tenth of a sigma changes no rank, and the Jacobians are most of a
+  // linearisation's cost.
+  const bool analyse = options.fit_extent > 0;
+  Measured measured;
+  if (analyse) {
+    measured.poses.resize(graph.blocks.size());
+    measured.multi.resize(nz, nz);
+  }
   bool factored = false;  // Linv and LinvYt hold the last iteration's
   for (int iteration = 0; iteration < options.max_iterations; ++iteration) {
     H.setZero();
     g.setZero();
-    // Each pose's information and gradient in its own tangent first, from its prior and the
-    // measurements on it alone (6 x 6, whatever the parameters), then moved onto the
-    // parameters that move it once. The prior is in the chart at the prior mean:
-    // δ = (Log(R0ᵀ R), t - t0), whose derivative in the chart at R is Jr(δθ)⁻¹ on the rotation.
+    if (analyse) measured.multi.setZero();
     for (size_t b = 0; b < graph.blocks.size(); ++b) {
-      const Block& block = graph.blocks[b];
-      if (block.kind != BlockKind::kPose) continue;
-      const Rigid3d& pose = values.poses[block.index];
-      const Rigid3d& pose0 = prior_mean.poses[block.index];
-      Vector6 delta;
-      delta.head<3>() = LogSO3(pose0.rotation.conjugate() * pose.rotation);
-      delta.tail<3>() = pose.translation - pose0.translation;
-      const Eigen::Matrix3d D = InverseRightJacobianSO3(delta.head<3>());  // and I on t
-      const Vector6 w = prior_variance.segment<6>(block.tangent_offset).cwiseInverse();
-      Matrix6& information = s.information[b];
-      information.setZero();
-      information.topLeftCorner<3, 3>().noalias() = D.transpose() * w.head<3>().asDiagonal() * D;
-      information.bottomRightCorner<3, 3>().diagonal() = w.tail<3>();
-      s.gradient[b].head<3>().noalias() = D.transpose() * w.head<3>().cwiseProduct(delta.head<3>());
-      s.gradient[b].tail<3>() = w.tail<3>().cwiseProduct(delta.tail<3>());
+      s.information[b].setZero();
+      s.gradient[b].setZero();
     }
     int row = 0;
     bool finite = true;
@@ -467,6 +578,7 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         } else {
           OnParameters(graph, f, map, s.Jw, G, &s);
           Accumulate(map.parameters, s.Jz, s.Wr, &H, &g, &s);
+          if (analyse) Accumulate(map.parameters, s.Jz, s.Wr, &measured.multi, &g_unused, &s);
         }
         continue;
       }
@@ -517,7 +629,33 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         }
       }
     }
-    if (finite) ProjectPoses(graph, red, G, &s, &H, &g);
+    if (finite) {
+      if (analyse) {  // the measurements' part, kept for the fit analysis
+        for (size_t b = 0; b < graph.blocks.size(); ++b) measured.poses[b] = s.information[b];
+      }
+      // Each pose's information and gradient gathered in its own tangent (6 x 6, whatever the
+      // parameters) are moved onto the parameters that move it once. The prior is in the chart
+      // at the prior mean: δ = (Log(R0ᵀ R), t - t0), whose derivative in the chart at R is
+      // Jr(δθ)⁻¹ on the rotation.
+      for (size_t b = 0; b < graph.blocks.size(); ++b) {
+        const Block& block = graph.blocks[b];
+        if (block.kind != BlockKind::kPose) continue;
+        const Rigid3d& pose = values.poses[block.index];
+        const Rigid3d& pose0 = prior_mean.poses[block.index];
+        Vector6 delta;
+        delta.head<3>() = LogSO3(pose0.rotation.conjugate() * pose.rotation);
+        delta.tail<3>() = pose.translation - pose0.translation;
+        const Eigen::Matrix3d D = InverseRightJacobianSO3(delta.head<3>());  // and I on t
+        const Vector6 w = prior_variance.segment<6>(block.tangent_offset).cwiseInverse();
+        Matrix6& information = s.information[b];
+        information.topLeftCorner<3, 3>().noalias() += D.transpose() * w.head<3>().asDiagonal() * D;
+        information.bottomRightCorner<3, 3>().diagonal() += w.tail<3>();
+        s.gradient[b].head<3>().noalias() +=
+            D.transpose() * w.head<3>().cwiseProduct(delta.head<3>());
+        s.gradient[b].tail<3>() += w.tail<3>().cwiseProduct(delta.tail<3>());
+      }
+      ProjectPoses(graph, red, G, &s, &H, &g);
+    }
     const Eigen::LLT<Eigen::MatrixXd> llt(H);
     if (!finite || llt.info() != Eigen::Success) {
       summary.factorized = false;
@@ -566,6 +704,7 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
     }
     factored = true;
 
+    std::swap(G, measured.G);  // the linearisation's, for the fit analysis
     Retract(graph, forest, step, &x);
     for (size_t i = 0; i < factors.size(); ++i) {
       const FactorMap& map = maps[i];
@@ -577,6 +716,9 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       values.slacks[graph.blocks[factors[i].blocks[map.slack_slot]].index] -= moved / map.a_lambda;
     }
     ComponentPoses(graph, forest, red.influence, x, &values, &G);
+    for (size_t i = 0; i < factors.size(); ++i) {
+      if (!maps[i].held && maps[i].slack_slot >= 0) CloseSlack(factors[i], maps[i], &s.r);
+    }
     summary.iterations = iteration + 1;
     bool settled = options.settled_fraction > 0;
     for (int k = 0; k < nz && settled; ++k) {
@@ -649,8 +791,9 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
     summary.max_constraint_residual =
         std::max(summary.max_constraint_residual, r.lpNorm<Eigen::Infinity>());
   }
-  estimate->analysed = summary.converged && options.fit_extent > 0 &&
-                       AnalyseAt(graph, factors, problem, values, G, &s, &estimate->analysis);
+  estimate->analysed =
+      summary.converged && analyse && factored &&
+      AnalyseFrom(graph, factors, problem, values, measured, C, &s, &estimate->analysis);
   return summary;
 }
 

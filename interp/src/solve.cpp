@@ -8,7 +8,6 @@
 #include <algorithm>
 #include <cmath>
 #include <map>
-#include <numeric>
 
 #include "cfuse/interp/closed_form_pose.h"
 #include "cfuse/interp/joint_estimates.h"
@@ -136,15 +135,19 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
                                  const SolveOptions& options,
                                  const std::vector<ResolvedLabel>& labels, const Values& initial,
                                  std::vector<std::string>* invalid, StackedNames* stacked) {
+  // A marker's noise, 2 x 2 or 3 x 3, held without an allocation of its own.
+  using Noise = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, 0, 3, 3>;
   std::vector<Factor> factors;
+  factors.reserve(graph.components.size() + graph.constraints.size());
   std::vector<int> component_factor(graph.components.size(), -1);
   std::vector<std::vector<std::shared_ptr<const ResidualFunction>>> parts;
-  std::vector<std::vector<Eigen::MatrixXd>> noises;
+  std::vector<std::vector<Noise>> noises;
+  std::vector<int> rows;  // per stacked factor, its rows so far
   for (size_t label = 0; label < labels.size(); ++label) {
     const ResolvedLabel& r = labels[label];
     const MeasuredPoint& m = set.points[r.measurement];
     const Component& comp = graph.components[r.component];
-    const std::shared_ptr<const ResidualFunction> f = MeasurementResidual(graph, set, r);
+    std::shared_ptr<const ResidualFunction> f = MeasurementResidual(graph, set, r);
     if (!m.is_3d && !std::isfinite(NormalisedSquare(graph, set, r, initial))) {
       // No projection there (Camera::Project). In its component's stacked factor it would make
       // every measurement of the component invalid, and the component silently unmeasured.
@@ -153,12 +156,20 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
           r.measurement, m.label));
       continue;
     }
-    const Eigen::MatrixXd noise = m.is_3d ? Eigen::MatrixXd(m.cov3) : Eigen::MatrixXd(m.cov2);
+    Noise noise;
+    if (m.is_3d) {
+      noise = m.cov3;
+    } else {
+      noise = m.cov2;
+    }
     if (!comp.rigid) {
-      factors.push_back(
-          {f, {comp.block}, noise, fmt::format("measurement {} ({})", r.measurement, m.label)});
+      factors.push_back({std::move(f),
+                         {comp.block},
+                         Eigen::MatrixXd(noise),
+                         fmt::format("measurement {} ({})", r.measurement, m.label)});
       parts.emplace_back();
       noises.emplace_back();
+      rows.push_back(0);
       continue;
     }
     int& k = component_factor[r.component];
@@ -167,23 +178,21 @@ std::vector<Factor> SolveFactors(const ConstraintGraph& graph, const Measurement
       factors.push_back({nullptr, {comp.block}, {}, fmt::format("measurements of {}", comp.name)});
       parts.emplace_back();
       noises.emplace_back();
+      rows.push_back(0);
     }
     if (stacked->size() <= static_cast<size_t>(k)) stacked->resize(static_cast<size_t>(k) + 1);
-    (*stacked)[k].emplace_back(std::accumulate(noises[k].begin(), noises[k].end(), 0,
-                                               [](int n, const Eigen::MatrixXd& x) {
-                                                 return n + static_cast<int>(x.rows());
-                                               }),
-                               static_cast<int>(label));
-    parts[k].push_back(f);
+    (*stacked)[k].emplace_back(rows[k], static_cast<int>(label));
+    rows[k] += static_cast<int>(noise.rows());
+    parts[k].push_back(std::move(f));
     noises[k].push_back(noise);
   }
   for (size_t k = 0; k < factors.size(); ++k) {
     if (factors[k].residual) continue;
-    factors[k].residual = std::make_shared<StackedResidual>(parts[k]);
+    factors[k].residual = std::make_shared<StackedResidual>(std::move(parts[k]));
     const int dim = factors[k].residual->dimension();
     factors[k].noise = Eigen::MatrixXd::Zero(dim, dim);
     int offset = 0;
-    for (const Eigen::MatrixXd& n : noises[k]) {
+    for (const Noise& n : noises[k]) {
       factors[k].noise.block(offset, offset, n.rows(), n.cols()) = n;
       offset += static_cast<int>(n.rows());
     }
