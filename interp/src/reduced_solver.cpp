@@ -105,6 +105,8 @@ bool Whitening(const Eigen::MatrixXd& R, Whitener* out) {
   out->blocks.clear();
   out->values.clear();
   const Eigen::Index n = R.rows();
+  out->blocks.reserve(static_cast<size_t>(n));
+  out->values.reserve(static_cast<size_t>(3 * n));  // a 3D marker's blocks, without regrowing
   for (Eigen::Index first = 0; first < n;) {
     Eigen::Index end = first + 1;  // grown until nothing outside [first, end) couples to it
     for (Eigen::Index i = first; i < end; ++i) {
@@ -287,6 +289,15 @@ void Accumulate(const std::vector<int>& p, const Eigen::MatrixXd& J, const Eigen
   }
 }
 
+// I += Jwᵀ Jw for a measurement's whitened rows on one pose (six columns): the lower triangle's
+// 21 column products, then mirrored.
+void AddInformation(const Eigen::MatrixXd& Jw, Matrix6* information) {
+  for (int c = 0; c < 6; ++c) {
+    for (int d = c; d < 6; ++d) (*information)(d, c) += Jw.col(d).dot(Jw.col(c));
+  }
+  information->triangularView<Eigen::StrictlyUpper>() = information->transpose();
+}
+
 // Each pose's information and gradient gathered in its tangent (`s`) moved onto the parameters
 // that move it: H(p, p) += Tbᵀ I Tb, g(p) += Tbᵀ v, Tb its rows of G on its parameters p. H is
 // symmetric: each pose's lower triangle is added (p ascends), and the upper mirrored once.
@@ -447,7 +458,7 @@ bool AnalyseAt(const ConstraintGraph& graph, const std::vector<Factor>& factors,
     }
     if (!Whitened(graph, f, map, values, s)) continue;
     if (f.blocks.size() == 1) {
-      measured.poses[f.blocks[0]].noalias() += s->Jw.transpose().lazyProduct(s->Jw);
+      AddInformation(s->Jw, &measured.poses[f.blocks[0]]);
     } else {
       OnParameters(graph, f, map, s->Jw, G, s);
       Accumulate(map.parameters, s->Jz, s->Wr, &measured.multi, &unused, s);
@@ -522,8 +533,9 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
       if (map.limit_joint >= 0) {
         const int j = map.limit_joint;
         const double q = forest.multiplier[j] * x.q[forest.leader[j]] + forest.offset[j];
-        const Jet v = map.limit->AtValue(Jet(q, JetDerivatives::Zero()),
-                                         Jet(lambda, JetDerivatives::Unit(0)));
+        using Dual = Eigen::AutoDiffScalar<Eigen::Matrix<double, 1, 1>>;  // d/dλ alone
+        const Dual v = map.limit->AtValue(Dual(q, Eigen::Matrix<double, 1, 1>::Zero()),
+                                          Dual(lambda, Eigen::Matrix<double, 1, 1>::Ones()));
         c = v.value();
         a_lambda = v.derivatives()[0];
       } else {  // the chord: the step's own a_λ
@@ -573,7 +585,7 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         finite = Whitened(graph, f, map, values, &s);
         if (!finite) break;
         if (f.blocks.size() == 1) {
-          s.information[f.blocks[0]].noalias() += s.Jw.transpose().lazyProduct(s.Jw);
+          AddInformation(s.Jw, &s.information[f.blocks[0]]);
           s.gradient[f.blocks[0]].noalias() += s.Jw.transpose().lazyProduct(s.Wr);
         } else {
           OnParameters(graph, f, map, s.Jw, G, &s);
@@ -745,15 +757,21 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         T(o, map.parameters[k]) = -map.a[static_cast<Eigen::Index>(k)] / map.a_lambda;
       }
     }
-    Eigen::MatrixXd covariance_z = Linv.transpose() * Linv;
-    if (LinvYt.rows() > 0) covariance_z.noalias() -= LinvYt.transpose() * LinvYt;
     Eigen::MatrixXd& P = estimate->covariance;
     if (!pairs) {
-      const Eigen::MatrixXd A = T * covariance_z;
+      // T Cov(z) Tᵀ = B Bᵀ - E Eᵀ, B = T Linvᵀ, E = T LinvYtᵀ: half the work of Cov(z) and the
+      // product with T's transpose (B's by Linv's triangle).
+      const Eigen::MatrixXd B = T * Linv.transpose().triangularView<Eigen::Upper>();
       P.resize(n, n);
-      P.triangularView<Eigen::Lower>() = A * T.transpose();
+      P.triangularView<Eigen::Lower>() = B * B.transpose();
+      if (LinvYt.rows() > 0) {
+        const Eigen::MatrixXd E = T * LinvYt.transpose();
+        P.triangularView<Eigen::Lower>() -= E * E.transpose();
+      }
       P.triangularView<Eigen::StrictlyUpper>() = P.transpose();
     } else {
+      Eigen::MatrixXd covariance_z = Linv.transpose() * Linv;
+      if (LinvYt.rows() > 0) covariance_z.noalias() -= LinvYt.transpose() * LinvYt;
       // A block's rows of T are zero outside the parameters that move it.
       P.setConstant(n, n, NAN);
       const auto rows_of = [&](int block) {

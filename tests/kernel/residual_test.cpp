@@ -3,6 +3,8 @@
 #include "cfuse/kernel/residual.h"
 
 #include <catch2/catch.hpp>
+#include <cmath>
+#include <type_traits>
 
 namespace cfuse {
 namespace {
@@ -59,6 +61,39 @@ TEST_CASE("residual: one Compute for values and for derivatives", "[kernel]") {
   CHECK(rj.derivatives()[0] == Approx(48));
   CHECK(rj.derivatives()[1] == Approx(36));
   CHECK(rj.derivatives()[2] == 0);
+}
+
+// Atan2 keeps a Jet's fixed derivative size (Eigen's atan2 of AutoDiffScalars does not): its
+// value is std::atan2's and its derivative the finite difference's, in all four quadrants,
+// for plain Jets and for expressions of them (sin and cos of one, as a joint's wrap takes).
+TEST_CASE("residual: Atan2 of Jets, value and derivative", "[kernel]") {
+  static_assert(std::is_same_v<decltype(Atan2(Jet(), Jet())), Jet>);
+  const double h = 1e-7;
+  for (const double angle : {0.3, 1.9, -2.8, -0.7, 3.1}) {
+    for (const double radius : {0.2, 5.0}) {
+      const double y0 = radius * std::sin(angle), x0 = radius * std::cos(angle);
+      // y and x moving with two independent parameters u, v: y = y0 + u + 2v, x = x0 - 3u + v.
+      const Jet u(0.0, JetDerivatives::Unit(0)), v(0.0, JetDerivatives::Unit(1));
+      const Jet a = Atan2(Jet(y0) + u + 2 * v, Jet(x0) - 3 * u + v);
+      INFO("angle " << angle << ", radius " << radius);
+      CHECK(a.value() == std::atan2(y0, x0));
+      const auto f = [&](double du, double dv) {
+        return std::atan2(y0 + du + 2 * dv, x0 - 3 * du + dv);
+      };
+      CHECK(a.derivatives()[0] == Approx((f(h, 0) - f(-h, 0)) / (2 * h)).epsilon(1e-6));
+      CHECK(a.derivatives()[1] == Approx((f(0, h) - f(0, -h)) / (2 * h)).epsilon(1e-6));
+      CHECK(a.derivatives().tail<kJetMaxDerivatives - 2>().isZero());
+    }
+  }
+  // An angle wrapped as a joint wraps it: d/dθ atan2(sin θ, cos θ) = 1 off the cut.
+  for (const double theta : {0.4, 2.5, 4.0, -3.0}) {
+    const Jet t(theta, JetDerivatives::Unit(3));
+    using std::cos, std::sin;
+    const Jet wrapped = Atan2(sin(t), cos(t));
+    CHECK(wrapped.value() == Approx(std::remainder(theta, 2 * M_PI)).margin(1e-15));
+    CHECK(wrapped.derivatives()[3] == Approx(1.0).epsilon(1e-14));
+  }
+  CHECK(Atan2(1.0, -1.0) == std::atan2(1.0, -1.0));
 }
 
 }  // namespace

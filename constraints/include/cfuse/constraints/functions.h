@@ -19,6 +19,7 @@
 #include <span>
 #include <string>
 
+#include "cfuse/kernel/jet.h"
 #include "cfuse/kernel/so3.h"
 
 namespace cfuse {
@@ -62,8 +63,7 @@ std::optional<ExprType> FunctionResultType(Function f, std::span<const ExprType>
 
 template <typename T>
 T AngleBetween(const Vector3<T>& u, const Vector3<T>& v) {
-  using std::atan2;
-  return atan2(u.cross(v).norm(), u.dot(v));
+  return Atan2(u.cross(v).norm(), u.dot(v));
 }
 
 // Applies f; scalar arguments and results are carried in x().

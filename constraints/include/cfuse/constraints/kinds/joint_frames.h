@@ -44,12 +44,11 @@ JointFrames<T> ComputeJointFrames(const BlockState<T>& parent, const BlockState<
 // displacement along the axis minus offset (prismatic).
 template <typename T>
 T RevoluteAngle(const JointFrames<T>& f, const JointGeometry& g, double offset) {
-  using std::atan2;
   Matrix3<T> R = f.Rp.transpose() * f.Rc;
   if (offset != 0) R = RotationAboutAxis<double>(g.axis, -offset).cast<T>() * R;
   const Vector3<T> e1 = g.e1.cast<T>();
   const Vector3<T> r1 = R * e1;
-  return atan2(g.e2.cast<T>().dot(r1), e1.dot(r1));
+  return Atan2(g.e2.cast<T>().dot(r1), e1.dot(r1));
 }
 
 template <typename T>

@@ -101,9 +101,9 @@ class JointLimitResidual : public AutoDiffResidual<JointLimitResidual> {
   // RevoluteAngle wraps it.
   template <typename T>
   T AtValue(const T& q, const T& slack) const {
-    using std::atan2, std::cos, std::sin;
+    using std::cos, std::sin;
     const T centred = q - T(mid_);
-    return RangeSlackResidual(prismatic_ ? centred : T(atan2(sin(centred), cos(centred))), 0.0,
+    return RangeSlackResidual(prismatic_ ? centred : T(Atan2(sin(centred), cos(centred))), 0.0,
                               half_, slack);
   }
 

@@ -29,12 +29,12 @@ class MimicResidual : public AutoDiffResidual<MimicResidual> {
 
   template <typename T>
   void Compute(std::span<const BlockState<T>> x, T* r) const {
-    using std::atan2, std::cos, std::sin;
+    using std::cos, std::sin;
     const T d = Value(follower_, x) - (T(multiplier_) * Value(leader_, x) + T(offset_));
     if (follower_.prismatic) {
       r[0] = d;
     } else {
-      r[0] = atan2(sin(d), cos(d));
+      r[0] = Atan2(sin(d), cos(d));
     }
   }
 
