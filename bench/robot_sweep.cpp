@@ -31,9 +31,11 @@
 // It prints a Markdown row per model, noise level and method: the trials that converged, the
 // RMS error of the independent joint variables (angles in mrad; prismatic joints in mm), the
 // mean NEES per joint (about 1 when the reported covariance is right), the RMS error of every
-// model point (its feature points and markers, mm), and the median time per solve. A joint
-// estimate held by an active inequality (its limit, or a range on points) has no variance and
-// is left out of the NEES. Single-point components (the lamp's) are measured themselves.
+// model point (its feature points and markers, mm), and the median time per solve (the
+// methods run in turn on each trial's data, in alternating order; run one method per process
+// to time each alone, as docs/benchmarks.md does for both). A joint estimate held by an
+// active inequality (its limit, or a range on points) has no variance and is left out of the
+// NEES. Single-point components (the lamp's) are measured themselves.
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
