@@ -556,7 +556,7 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
 
   Scratch s(graph, nz);
   Eigen::MatrixXd H(nz, nz), C(m, nz), Linv, LinvYt;
-  Eigen::VectorXd g(nz), c(m), g_unused(nz);
+  Eigen::VectorXd g(nz), c(m);
   // The last linearisation's measurement information, which a converged answer's fit analysis
   // reads: a step of a tenth of a sigma changes no rank, and the Jacobians are most of a
   // linearisation's cost.
@@ -589,8 +589,8 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
           s.gradient[f.blocks[0]].noalias() += s.Jw.transpose().lazyProduct(s.Wr);
         } else {
           OnParameters(graph, f, map, s.Jw, G, &s);
-          Accumulate(map.parameters, s.Jz, s.Wr, &H, &g, &s);
-          if (analyse) Accumulate(map.parameters, s.Jz, s.Wr, &measured.multi, &g_unused, &s);
+          // Kept apart for the fit analysis, and added to H whole below.
+          Accumulate(map.parameters, s.Jz, s.Wr, analyse ? &measured.multi : &H, &g, &s);
         }
         continue;
       }
@@ -644,6 +644,7 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
     if (finite) {
       if (analyse) {  // the measurements' part, kept for the fit analysis
         for (size_t b = 0; b < graph.blocks.size(); ++b) measured.poses[b] = s.information[b];
+        H += measured.multi;
       }
       // Each pose's information and gradient gathered in its own tangent (6 x 6, whatever the
       // parameters) are moved onto the parameters that move it once. The prior is in the chart
