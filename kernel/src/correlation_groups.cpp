@@ -7,9 +7,10 @@
 
 namespace cfuse {
 
-CorrelationGroups::CorrelationGroups(int num_blocks) : parent_(num_blocks), members_(num_blocks) {
+CorrelationGroups::CorrelationGroups(int num_blocks)
+    : parent_(num_blocks), next_(num_blocks, -1), last_(num_blocks), size_(num_blocks, 1) {
   std::iota(parent_.begin(), parent_.end(), 0);
-  for (int b = 0; b < num_blocks; ++b) members_[b] = {b};
+  std::iota(last_.begin(), last_.end(), 0);
 }
 
 int CorrelationGroups::Root(int block) const {
@@ -32,11 +33,11 @@ void CorrelationGroups::Merge(std::span<const int> blocks) {
   for (int b : blocks.subspan(1)) {
     int other = Root(b);
     if (other == root) continue;
-    if (members_[other].size() > members_[root].size()) std::swap(root, other);
+    if (size_[other] > size_[root]) std::swap(root, other);
     parent_[other] = root;
-    members_[root].insert(members_[root].end(), members_[other].begin(), members_[other].end());
-    members_[other].clear();
-    members_[other].shrink_to_fit();
+    next_[last_[root]] = other;  // a root heads its own list
+    last_[root] = last_[other];
+    size_[root] += size_[other];
   }
 }
 
@@ -49,7 +50,7 @@ void CorrelationGroups::Support(std::span<const int> blocks, std::vector<int>* o
     const int r = Root(b);
     if (std::find(roots.begin(), roots.end(), r) != roots.end()) continue;
     roots.push_back(r);
-    out->insert(out->end(), members_[r].begin(), members_[r].end());
+    for (int m = r; m >= 0; m = next_[m]) out->push_back(m);
   }
   std::sort(out->begin(), out->end());
 }

@@ -83,12 +83,13 @@ struct Workspace {
   std::vector<int> support_blocks;  // blocks correlated with the factor's, by tangent offset
   std::vector<int> support;         // their tangent coordinates
   std::vector<int> position;        // where each of `index` sits in `support`
-  std::vector<const double*> columns;  // where each column of the factor starts in P
+  std::vector<const double*> columns;     // where each column of the factor starts in P
+  std::vector<const double*> aa_columns;  // and in P_aa
   std::vector<double> P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init, innovation;
-  std::vector<double> U, lambda, W, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv, signs;
+  std::vector<double> U, lambda, W, W_a, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv;
+  std::vector<double> signs;
   std::vector<int> keep;
-  std::vector<Run> runs;    // of the support
-  bool gain_ready = false;  // W already formed by the whitening (one row)
+  std::vector<Run> runs;  // of the support
   Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eigen;
   Eigen::LLT<Eigen::MatrixXd> llt;
 };
@@ -166,12 +167,11 @@ void GatherPrior(const Factor& factor, const GaussianState& state, const Values*
   // P(S, a) is read in place (the covariance does not change until the update's end).
   ws->columns.resize(a);
   for (int j = 0; j < a; ++j) ws->columns[j] = P.data() + static_cast<long>(ws->index[j]) * n;
-  // (A one-row constraint reads its columns' block through the gain: WhitenScalarConstraint.)
   Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws->P_aa, a, a);
-  if (!factor.is_constraint() || factor.residual->dimension() > 1) {
-    for (int j = 0; j < a; ++j) {
-      for (int i = 0; i < a; ++i) P_aa(i, j) = ws->columns[j][ws->index[i]];
-    }
+  ws->aa_columns.resize(a);
+  for (int j = 0; j < a; ++j) {
+    for (int i = 0; i < a; ++i) P_aa(i, j) = ws->columns[j][ws->index[i]];
+    ws->aa_columns[j] = P_aa.data() + static_cast<long>(j) * a;
   }
   Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws->prior_aa, a);
   for (int j = 0; j < a; ++j) prior_a(j) = state.prior_variance[ws->index[j]];
@@ -233,9 +233,58 @@ bool WhitenMeasurement(const Eigen::MatrixXd& noise, const Eigen::Map<Eigen::Mat
   return true;
 }
 
+// WhitenMeasurement for three rows, the commonest measurement (a 3D point or marker): the same
+// quantities in fixed-size matrices, whose dynamic counterparts' set-up (a dynamic LLT, its
+// triangular solves, the quadratic forms' scratch) cost more than a 3 x 3 update's arithmetic.
+bool WhitenMeasurement3(const Eigen::MatrixXd& noise, const Eigen::Map<Eigen::MatrixXd>& H,
+                        const Eigen::Map<Eigen::MatrixXd>& P_aa,
+                        const Eigen::Map<Eigen::VectorXd>& innovation, Workspace* ws) {
+  const int a = static_cast<int>(H.cols());
+  using Rows3 = Eigen::Matrix<double, 3, Eigen::Dynamic>;
+  Eigen::Map<Rows3> HP(Scratch(&ws->HP, 3, a).data(), 3, a);
+  for (int l = 0; l < a; ++l) {
+    HP.col(l).setZero();
+    for (int j = 0; j < a; ++j) HP.col(l) += H.col(j) * P_aa(j, l);
+  }
+  Eigen::Matrix3d S = Eigen::Matrix3d::Zero();
+  for (int l = 0; l < a; ++l) S.noalias() += HP.col(l) * H.col(l).transpose();
+  S += noise;
+  const Eigen::LLT<Eigen::Matrix3d> llt(S);
+  if (llt.info() != Eigen::Success) return false;
+  const Eigen::Matrix3d L = llt.matrixL();
+  // Aᵀ = L⁻¹ H, z = L⁻¹ innovation and Bᵀ = L⁻¹, by forward substitution (more accurate than
+  // multiplying by an inverse where S is ill-conditioned).
+  Eigen::Map<Rows3> At(Scratch(&ws->G, 3, a).data(), 3, a);
+  Eigen::Vector3d z = innovation;
+  Eigen::Matrix3d Bt = Eigen::Matrix3d::Identity();
+  At = H;
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < i; ++j) {
+      At.row(i) -= L(i, j) * At.row(j);
+      z(i) -= L(i, j) * z(j);
+      Bt.row(i) -= L(i, j) * Bt.row(j);
+    }
+    At.row(i) /= L(i, i);
+    z(i) /= L(i, i);
+    Bt.row(i) /= L(i, i);
+  }
+  Scratch(&ws->A, a, 3) = At.transpose();
+  ScratchVector(&ws->z, 3) = z;
+  // M = Aᵀ P0 A + Bᵀ R B, from the A used (its roundoff is what the Joseph form absorbs).
+  Eigen::Map<Rows3> AP(Scratch(&ws->PG, 3, a).data(), 3, a);
+  for (int l = 0; l < a; ++l) {
+    AP.col(l).setZero();
+    for (int j = 0; j < a; ++j) AP.col(l) += At.col(j) * P_aa(j, l);
+  }
+  Eigen::Matrix3d M = Bt * noise * Bt.transpose();
+  for (int l = 0; l < a; ++l) M.noalias() += AP.col(l) * At.col(l).transpose();
+  Scratch(&ws->M, 3, 3) = 0.5 * (M + M.transpose());
+  return true;
+}
+
 // WhitenConstraint (below) for a single row, the commonest constraint (a distance, an angle, a
 // limit): the same quantities without its small dynamic matrices, whose set-up cost more than
-// the row's products, and with the gain W formed on the way (Workspace::gain_ready).
+// the row's products.
 int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
                            const Eigen::Map<Eigen::VectorXd>& prior_a, double innovation,
                            bool first, const FusionOptions& options, Workspace* ws,
@@ -243,20 +292,16 @@ int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
   const int a = static_cast<int>(H.cols());
   double s_init = 0;
   for (int l = 0; l < a; ++l) s_init += H(0, l) * prior_a(l) * H(0, l);
-  // The row scaled to unit prior variance (t), and ρ = tᵀ S t, the fraction of it left.
+  // The row scaled to unit prior variance (t), and ρ = tᵀ S t = Gᵀ P(a, a) G, the fraction of
+  // it left.
   const double t = s_init > 0 ? 1 / std::sqrt(s_init) : 0.0;
   Eigen::Map<Eigen::MatrixXd> G = Scratch(&ws->G, a, 1);
   for (int l = 0; l < a; ++l) G(l, 0) = H(0, l) * t;
-  // P(S, a) G over the support, whose entries at the factor's own columns give ρ = Gᵀ P(a, a) G
-  // and which, scaled, is the gain W: one sweep over the covariance's columns for both.
-  const int s = static_cast<int>(ws->support.size());
-  Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws->W, s, 1);
+  Eigen::Map<Eigen::VectorXd> PG = ScratchVector(&ws->PG, a);
   double rho = 0;
   if (t > 0) {
-    for (const Run& run : ws->runs) {
-      CombineColumns(ws->columns.data(), run.first, run.size, a, G.data(), W.data() + run.at);
-    }
-    for (int l = 0; l < a; ++l) rho += G(l, 0) * W(ws->position[l], 0);
+    CombineColumns(ws->aa_columns.data(), 0, a, a, G.data(), PG.data());
+    for (int l = 0; l < a; ++l) rho += G(l, 0) * PG(l);
   }
   const bool kept = t > 0 && rho > options.degeneracy_tolerance;
   if (first) {
@@ -274,8 +319,7 @@ int WhitenScalarConstraint(const Eigen::Map<Eigen::MatrixXd>& H,
   }
   if (!kept) return 0;
   const double scale = 1 / std::sqrt(rho);
-  W *= scale;
-  ws->gain_ready = true;
+  Scratch(&ws->A, a, 1) = G * scale;
   ScratchVector(&ws->z, 1)(0) = scale * t * innovation;
   Scratch(&ws->M, 1, 1)(0, 0) = rho / std::sqrt(rho) / std::sqrt(rho);
   return 1;
@@ -424,6 +468,30 @@ int WhitenConstraint(const Eigen::Map<Eigen::MatrixXd>& H, const Eigen::Map<Eige
   return k;
 }
 
+// The gain over the whole support, W = P(S, a) A (s x k), from the whitened directions A.
+void GainOnSupport(int k, Workspace* ws) {
+  const int s = static_cast<int>(ws->support.size()), a = static_cast<int>(ws->index.size());
+  Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws->A, a, k), W = Scratch(&ws->W, s, k);
+  for (int j = 0; j < k; ++j) {
+    for (const Run& run : ws->runs) {
+      CombineColumns(ws->columns.data(), run.first, run.size, a, A.col(j).data(),
+                     W.col(j).data() + run.at);
+    }
+  }
+}
+
+// The iterate that stands, over the whole support: δ = μ + W z.
+void StepOnSupport(int k, Workspace* ws) {
+  GainOnSupport(k, ws);
+  const int s = static_cast<int>(ws->support.size()), a = static_cast<int>(ws->index.size());
+  Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws->W, s, k);
+  Eigen::Map<Eigen::VectorXd> delta = ScratchVector(&ws->delta, s);
+  delta = ScratchVector(&ws->mu, s);
+  for (int j = 0; j < k; ++j) delta += ws->z[j] * W.col(j);
+  Eigen::Map<Eigen::VectorXd> delta_a = ScratchVector(&ws->delta_a, a);
+  for (int j = 0; j < a; ++j) delta_a(j) = delta(ws->position[j]);
+}
+
 // The covariance for the final linearisation, on the support only, in Joseph form:
 // (I - K H) P0 (I - K H)ᵀ + K R Kᵀ = P0 - W (2I - M) Wᵀ with M = Bᵀ (H P0 Hᵀ + R) B (above),
 // which is I for the exact optimal gain and then gives P0 - W Wᵀ. Roundoff makes the gain
@@ -439,9 +507,17 @@ void JosephUpdate(int k, Workspace* ws, Eigen::MatrixXd* covariance) {
   Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws->W, s, k), V = Scratch(&ws->V, s, k);
   Eigen::Map<Eigen::VectorXd> signs = ScratchVector(&ws->signs, k);
   signs.setOnes();
+  Eigen::LLT<Eigen::Matrix3d> llt3;
   if (k == 1) {
     signs(0) = C(0, 0) < 0 ? -1 : 1;
     W *= std::sqrt(std::abs(C(0, 0)));
+  } else if (k == 3 && llt3.compute(Eigen::Matrix3d(C)).info() == Eigen::Success) {
+    const Eigen::Matrix3d L = llt3.matrixL();
+    for (int j = 0; j < 3; ++j) {
+      V.col(j) = W.col(j) * L(j, j);
+      for (int l = j + 1; l < 3; ++l) V.col(j) += W.col(l) * L(l, j);
+    }
+    W = V;
   } else if (ws->llt.compute(C).info() == Eigen::Success) {
     const auto& L = ws->llt.matrixLLT();  // lower triangle
     for (int j = 0; j < k; ++j) {
@@ -500,15 +576,14 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   GatherPrior(factor, *state, linearize_at, offset, &ws);
   const Eigen::Map<Eigen::MatrixXd> P_aa = Scratch(&ws.P_aa, a, a);
   const Eigen::Map<Eigen::VectorXd> prior_a = ScratchVector(&ws.prior_aa, a);
-  const Eigen::Map<Eigen::VectorXd> mu = ScratchVector(&ws.mu, s),
-                                    mu_a = ScratchVector(&ws.mu_a, a);
+  const Eigen::Map<Eigen::VectorXd> mu_a = ScratchVector(&ws.mu_a, a);
   Eigen::Map<Eigen::VectorXd> delta = ScratchVector(&ws.delta, s);
   Eigen::Map<Eigen::VectorXd> delta_a = ScratchVector(&ws.delta_a, a);
 
   Eigen::Map<Eigen::VectorXd> r = ScratchVector(&ws.r, m);
   Eigen::Map<Eigen::MatrixXd> H = Scratch(&ws.H, m, a);
   Eigen::Map<Eigen::VectorXd> innovation = ScratchVector(&ws.innovation, m);
-  Eigen::Map<Eigen::VectorXd> next = ScratchVector(&ws.next, s);
+  Eigen::Map<Eigen::VectorXd> next_a = ScratchVector(&ws.next, a);
   // Each iteration whitens the directions it fuses: with B (m x k) such that Bᵀ (H P0 Hᵀ + R) B
   // is the identity, A = Hᵀ B (a x k), W = P0 A (s x k on the support) and z = Bᵀ innovation
   // (k), the step is δ = W z and the covariance update P0 - W Wᵀ (in Joseph form, below). For
@@ -525,8 +600,16 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   // linearised at one point, nor where the covariance is discarded
   // (FusionOptions::covariance_at_final_iterate).
   bool finishing = false;
+  // Where the iterations relinearise, a constraint's check of its residual at the new iterate
+  // (below) differentiates it too: the next iteration, or the finishing one, needs that
+  // Jacobian at the same point.
+  const bool relinearise = options.max_iterations > 1 && options.covariance_at_final_iterate;
+  bool evaluated = false;  // r and H already at the current iterate
   for (int iteration = 0; iteration < options.max_iterations || finishing; ++iteration) {
-    EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
+    if (!evaluated) {
+      EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), H.data());
+    }
+    evaluated = false;
     if (!r.allFinite() || !H.allFinite()) {
       summary.status = FusionSummary::Status::kInvalid;
       for (int i = 0; i < m && summary.invalid_row < 0; ++i) {
@@ -539,9 +622,10 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
 
     Eigen::Map<Eigen::MatrixXd> A = Scratch(&ws.A, a, m);
     Eigen::Map<Eigen::VectorXd> z = ScratchVector(&ws.z, m);
-    ws.gain_ready = false;
     if (!factor.is_constraint()) {
-      if (!WhitenMeasurement(factor.noise, H, P_aa, innovation, &ws)) {
+      const bool whitened = m == 3 ? WhitenMeasurement3(factor.noise, H, P_aa, innovation, &ws)
+                                   : WhitenMeasurement(factor.noise, H, P_aa, innovation, &ws);
+      if (!whitened) {
         summary.status = FusionSummary::Status::kInvalid;
         return summary;
       }
@@ -554,36 +638,47 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
       if (finishing && kept == 0) break;
       k = kept;
     }
-    Eigen::Map<Eigen::MatrixXd> W = Scratch(&ws.W, s, k);
-    for (int j = 0; j < k && !ws.gain_ready; ++j) {
-      for (const Run& run : ws.runs) {
-        CombineColumns(ws.columns.data(), run.first, run.size, a, A.col(j).data(),
-                       W.col(j).data() + run.at);
-      }
+    if (finishing) {
+      GainOnSupport(k, &ws);
+      break;
     }
-    if (finishing) break;
     if (iteration == 0) summary.innovation_nis = z.head(k).squaredNorm();
     summary.final_nis = z.head(k).squaredNorm();
-    next = mu;
-    for (int j = 0; j < k; ++j) next += z(j) * W.col(j);
-    const double step = (next - delta).lpNorm<Eigen::Infinity>();
-    delta = next;
-    for (int j = 0; j < a; ++j) delta_a(j) = delta(ws.position[j]);
     summary.iterations = iteration + 1;
     // An affine residual is solved exactly by its first update.
-    if (linear || step <= options.step_tolerance * (1 + delta.lpNorm<Eigen::Infinity>())) break;
-    const bool relinearise = options.max_iterations > 1 && options.covariance_at_final_iterate;
+    if (linear) {
+      StepOnSupport(k, &ws);
+      break;
+    }
+    // The iterate on the factor's own coordinates: the rows of W at its columns are
+    // P(a, a) A. Only the iterate that stands needs W over the whole support (StepOnSupport).
+    Eigen::Map<Eigen::MatrixXd> W_a = Scratch(&ws.W_a, a, k);
+    for (int j = 0; j < k; ++j) {
+      CombineColumns(ws.aa_columns.data(), 0, a, a, A.col(j).data(), W_a.col(j).data());
+    }
+    next_a = mu_a;
+    for (int j = 0; j < k; ++j) next_a += z(j) * W_a.col(j);
+    const double step = (next_a - delta_a).lpNorm<Eigen::Infinity>();
+    delta_a = next_a;
+    if (step <= options.step_tolerance * (1 + delta_a.lpNorm<Eigen::Infinity>())) {
+      StepOnSupport(k, &ws);
+      break;
+    }
     if (factor.is_constraint()) {
       // A constraint met at the new iterate needs no further step (the next would be of the
-      // size of its residual): checking costs one residual.
-      EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(), nullptr);
+      // size of its residual).
+      EvaluateResidualAt(f, blocks, factor.blocks, state->mean, delta_a.data(), r.data(),
+                         relinearise ? H.data() : nullptr);
+      evaluated = relinearise;
       if (r.allFinite() && r.lpNorm<Eigen::Infinity>() <= options.residual_tolerance) {
+        StepOnSupport(k, &ws);
         if (!relinearise) break;
         finishing = true;
         continue;
       }
     }
     if (iteration + 1 == options.max_iterations) {
+      StepOnSupport(k, &ws);
       if (!relinearise) break;
       summary.status = FusionSummary::Status::kNotConverged;
       finishing = true;

@@ -31,8 +31,13 @@ class CorrelationGroups {
  private:
   int Root(int block) const;
 
+  // Each group's blocks as a list threaded through `next_` (-1 ends it), with its last block and
+  // size kept at its root: a merge splices two lists, and copying the groups (a state is
+  // copied whole, e.g. per interpretation branch) copies four flat arrays.
   std::vector<int> parent_;
-  std::vector<std::vector<int>> members_;  // at each root: its group's blocks
+  std::vector<int> next_;
+  std::vector<int> last_;  // at each root
+  std::vector<int> size_;  // at each root
 };
 
 }  // namespace cfuse
