@@ -85,7 +85,7 @@ struct Workspace {
   std::vector<int> position;        // where each of `index` sits in `support`
   std::vector<const double*> columns;     // where each column of the factor starts in P
   std::vector<const double*> aa_columns;  // and in P_aa
-  std::vector<double> P_aa, prior_aa, delta, delta_a, mu, mu_a, next, r, H, S, S_init, innovation;
+  std::vector<double> P_aa, prior_aa, delta, delta_a, mu, mu_a, next_a, r, H, S, S_init, innovation;
   std::vector<double> U, lambda, W, W_a, HP, A, z, Su, B, C, M, R, BRB, V, T, G, PG, Ti, v, Sv;
   std::vector<double> signs;
   std::vector<int> keep;
@@ -583,7 +583,7 @@ FusionSummary Fuse(const Factor& factor, GaussianState* state, const FusionOptio
   Eigen::Map<Eigen::VectorXd> r = ScratchVector(&ws.r, m);
   Eigen::Map<Eigen::MatrixXd> H = Scratch(&ws.H, m, a);
   Eigen::Map<Eigen::VectorXd> innovation = ScratchVector(&ws.innovation, m);
-  Eigen::Map<Eigen::VectorXd> next_a = ScratchVector(&ws.next, a);
+  Eigen::Map<Eigen::VectorXd> next_a = ScratchVector(&ws.next_a, a);
   // Each iteration whitens the directions it fuses: with B (m x k) such that Bᵀ (H P0 Hᵀ + R) B
   // is the identity, A = Hᵀ B (a x k), W = P0 A (s x k on the support) and z = Bᵀ innovation
   // (k), the step is δ = W z and the covariance update P0 - W Wᵀ (in Joseph form, below). For
