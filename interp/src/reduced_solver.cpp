@@ -1,5 +1,7 @@
 #include "reduced_solver.h"
 
+#include <fmt/format.h>
+
 #include <Eigen/Cholesky>
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -10,7 +12,6 @@
 #include "cfuse/kernel/check.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/evaluate.h"
-#include "cfuse/kernel/jet.h"
 #include "cfuse/kernel/so3.h"
 #include "cfuse/kernel/triangular.h"
 #include "kinematic_forest.h"
@@ -217,22 +218,31 @@ std::string Prepare(const ConstraintGraph& graph, const std::vector<Factor>& fac
     return a.residual < b.residual;
   });
   p.maps.assign(factors.size(), FactorMap{});
+  // The parameters a factor's blocks depend on: the union of theirs (one block's are sorted and
+  // distinct already).
+  const auto union_of_blocks = [&](const Factor& f, std::vector<int>* parameters) {
+    for (int b : f.blocks) {
+      parameters->insert(parameters->end(), p.red.block_parameters[b].begin(),
+                         p.red.block_parameters[b].end());
+    }
+    if (f.blocks.size() > 1) {
+      std::sort(parameters->begin(), parameters->end());
+      parameters->erase(std::unique(parameters->begin(), parameters->end()), parameters->end());
+    }
+  };
   for (size_t i = 0; i < factors.size(); ++i) {
     const Factor& f = factors[i];
     FactorMap& map = p.maps[i];
     int column = 0;
+    map.first_column.reserve(f.blocks.size());
     for (size_t s = 0; s < f.blocks.size(); ++s) {
       const Block& b = graph.blocks[f.blocks[s]];
       map.first_column.push_back(column);
       column += TangentDim(b.kind);
       if (b.kind == BlockKind::kSlack) map.slack_slot = static_cast<int>(s);
-      map.parameters.insert(map.parameters.end(), p.red.block_parameters[f.blocks[s]].begin(),
-                            p.red.block_parameters[f.blocks[s]].end());
     }
-    std::sort(map.parameters.begin(), map.parameters.end());
-    map.parameters.erase(std::unique(map.parameters.begin(), map.parameters.end()),
-                         map.parameters.end());
     if (!f.is_constraint()) {
+      union_of_blocks(f, &map.parameters);
       map.whitened = Whitening(f.noise, &map.whiten);
       continue;
     }
@@ -244,10 +254,14 @@ std::string Prepare(const ConstraintGraph& graph, const std::vector<Factor>& fac
       if (use->limit_joint < 0) continue;
       const int j = use->limit_joint;
       map.limit = dynamic_cast<const JointLimitResidual*>(f.residual.get());
-      if (map.limit) {
-        map.limit_joint = j;
-        map.parameters = {forest.joint_parameter[forest.leader[j]]};
-      }
+      if (map.limit) map.limit_joint = j;
+    }
+    // A limit moves with its joint's variable alone; a held constraint with nothing (no step
+    // reads it).
+    if (map.limit) {
+      map.parameters = {forest.joint_parameter[forest.leader[map.limit_joint]]};
+    } else if (!map.held || map.slack_slot >= 0) {
+      union_of_blocks(f, &map.parameters);
     }
     if (map.slack_slot >= 0) {
       p.red.block_parameters[f.blocks[map.slack_slot]] = map.parameters;
@@ -334,6 +348,14 @@ bool Whitened(const ConstraintGraph& graph, const Factor& f, const FactorMap& ma
     if (size == 1) {
       s->Jw.row(first) = W[0] * s->J.row(first);
       s->Wr[first] = W[0] * s->r[first];
+      continue;
+    }
+    if (size == 3) {  // a 3D marker's, at its fixed size
+      const Eigen::Map<const Eigen::Matrix3d> W3(W);
+      s->Jw.middleRows<3>(first).noalias() =
+          W3.triangularView<Eigen::Lower>() * s->J.middleRows<3>(first);
+      s->Wr.segment<3>(first).noalias() =
+          W3.triangularView<Eigen::Lower>() * s->r.segment<3>(first);
       continue;
     }
     for (int i = 0; i < size; ++i) {
@@ -487,21 +509,23 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
                             const Values& prior_mean, const Eigen::VectorXd& prior_variance,
                             ReducedEstimate* estimate, const ReducedOptions& options,
                             const Values* initial, const std::vector<std::pair<int, int>>* pairs) {
+  ReducedSummary summary;
   Problem problem;
-  if (const std::string why =
-          Prepare(graph, factors, options.fit_extent > 0 ? options.fit_extent : 1.0, &problem);
-      !why.empty()) {
-    CFUSE_CHECK_MSG(false, why);
-  }
+  summary.unsupported =
+      Prepare(graph, factors, options.fit_extent > 0 ? options.fit_extent : 1.0, &problem);
+  if (!summary.unsupported.empty()) return summary;
   const Reduction& red = problem.red;
   std::vector<FactorMap>& maps = problem.maps;
   const Forest& forest = red.forest;
   const int nz = forest.size;
+  summary.parameters = nz;
+  if (nz > options.max_parameters) {
+    summary.unsupported = fmt::format("{} parameters, more than {}", nz, options.max_parameters);
+    return summary;
+  }
   const int n = graph.tangent_dim();
   const int m = problem.constraint_rows;
   CFUSE_CHECK_EQ(prior_variance.size(), n);
-  ReducedSummary summary;
-  summary.parameters = nz;
   summary.eliminated_slacks = problem.eliminated_slacks;
   summary.constraint_rows = m;
 
@@ -598,8 +622,9 @@ ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Fact
         const int j = map.limit_joint;
         const double q = forest.multiplier[j] * x.q[forest.leader[j]] + forest.offset[j];
         const double slack = values.slacks[graph.blocks[f.blocks[map.slack_slot]].index];
-        const Jet v = map.limit->AtValue(Jet(q, JetDerivatives::Unit(0)),
-                                         Jet(slack, JetDerivatives::Unit(1)));
+        using Dual = Eigen::AutoDiffScalar<Eigen::Vector2d>;  // d/dq and d/dλ
+        const Dual v = map.limit->AtValue(Dual(q, Eigen::Vector2d::UnitX()),
+                                          Dual(slack, Eigen::Vector2d::UnitY()));
         map.c = v.value();
         map.a.resize(1);
         map.a[0] = v.derivatives()[0] * forest.multiplier[j];

@@ -24,6 +24,7 @@
 #pragma once
 
 #include <Eigen/Core>
+#include <limits>
 #include <string>
 #include <utility>
 #include <vector>
@@ -47,9 +48,15 @@ struct ReducedOptions {
   // > 0: a converged answer's fit analysed too (AnalyseReducedFit at this extent), on the
   // solve's own forest and at its last forward kinematics.
   double fit_extent = 0;
+  // A forest of more parameters is not solved (ReducedSummary::unsupported says so): the
+  // dense steps cost their cube.
+  int max_parameters = std::numeric_limits<int>::max();
 };
 
 struct ReducedSummary {
+  // Why nothing was solved (ReducedUnsupported's answer, or more parameters than
+  // ReducedOptions::max_parameters), or empty.
+  std::string unsupported;
   bool converged = false;
   // false: a residual or a Jacobian not finite, or H not positive definite; no covariance.
   bool factorized = true;
@@ -88,7 +95,9 @@ int ReducedParameters(const ConstraintGraph& graph);
 // or at the prior mean. `factors` as Solve builds them: measurements and the graph's
 // constraints (those the forest holds are recognised by their residual and skipped).
 // `pairs`, if given: the covariance of each block and of these pairs of blocks only (what
-// results report of a large model), not the whole.
+// results report of a large model), not the whole. A graph or factors it does not take
+// (ReducedUnsupported) are answered by `unsupported`, `estimate` untouched: the question is
+// settled by the same preparation the solve needs.
 ReducedSummary SolveReduced(const ConstraintGraph& graph, const std::vector<Factor>& factors,
                             const Values& prior_mean, const Eigen::VectorXd& prior_variance,
                             ReducedEstimate* estimate, const ReducedOptions& options = {},

@@ -112,10 +112,15 @@ LabelledStart SolveStart(const ConstraintGraph& graph, const MeasurementSet& set
     MatchSlacks(graph, &unplaced);
     std::vector<bool> measured(graph.components.size(), false);
     for (const ResolvedLabel& r : labels) measured[r.component] = true;
+    bool any_to_place = false;
     for (size_t c = 0; c < graph.components.size(); ++c) {
       if (graph.components[c].rigid) measured[c] = true;  // placed by their closed forms
+      any_to_place = any_to_place || !measured[c];
     }
-    if (options.use_constraints_between_components) PlaceUnmeasured(graph, measured, &initial);
+    if (!any_to_place || !options.use_constraints_between_components) {
+      return {unplaced, std::move(unplaced)};  // nothing to place: the same start twice
+    }
+    PlaceUnmeasured(graph, measured, &initial);
   }
   MatchSlacks(graph, &initial);
   return {std::move(initial), std::move(unplaced)};
@@ -368,19 +373,17 @@ bool SolveReducedFirst(const ConstraintGraph& graph, const std::vector<Factor>& 
                        const SequenceOptions& sequence, const SolveOptions& options,
                        Solution* solution, Fit* fit, bool* analysed) {
   *analysed = false;
-  int parameters = 0;
-  if (!internal::ReducedUnsupported(graph, factors, &parameters).empty() ||
-      parameters >= options.reduced_below) {
-    return false;
-  }
+  if (options.reduced_below <= 0 || graph.joints.empty()) return false;
   internal::ReducedOptions reduced;
   reduced.constraint_tolerance = sequence.constraint_tolerance;
   reduced.fit_extent = solution->extent;
+  reduced.max_parameters = options.reduced_below - 1;
   internal::ReducedEstimate estimate;
   const std::vector<std::pair<int, int>> pairs = JointPairs(graph);
   const internal::ReducedSummary s = internal::SolveReduced(
       graph, factors, initial, PriorVariance(graph.blocks, scale), &estimate, reduced, &initial,
       graph.tangent_dim() < options.full_covariance_below ? nullptr : &pairs);
+  if (!s.unsupported.empty()) return false;
   if (!Settled(graph, s.factorized && s.converged, s.max_constraint_residual, estimate.mean,
                sequence)) {
     return false;
@@ -554,21 +557,27 @@ Eigen::Vector3d ModelPoint(const ConstraintGraph& graph, const Values& values, i
 }
 
 double ModelExtent(const ConstraintGraph& graph) {
-  std::vector<Eigen::Vector3d> points;
-  for (size_t c = 0; c < graph.components.size(); ++c) {
-    const Component& comp = graph.components[c];
-    if (!comp.rigid) points.push_back(ModelPoint(graph, graph.nominal, static_cast<int>(c), -1));
-    for (size_t f = 0; f < comp.points.size(); ++f) {
-      points.push_back(ModelPoint(graph, graph.nominal, static_cast<int>(c), static_cast<int>(f)));
+  // Every model point at the nominal values, and each rigid component's origin; visited twice
+  // (their centre, then the farthest from it) rather than stored: every solve asks.
+  const auto for_each_point = [&](const auto& visit) {
+    for (size_t c = 0; c < graph.components.size(); ++c) {
+      const Component& comp = graph.components[c];
+      if (!comp.rigid) visit(ModelPoint(graph, graph.nominal, static_cast<int>(c), -1));
+      for (size_t f = 0; f < comp.points.size(); ++f) {
+        visit(ModelPoint(graph, graph.nominal, static_cast<int>(c), static_cast<int>(f)));
+      }
+      if (comp.rigid) visit(graph.nominal.poses[graph.blocks[comp.block].index].translation);
     }
-    if (comp.rigid)
-      points.push_back(graph.nominal.poses[graph.blocks[comp.block].index].translation);
-  }
+  };
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  for (const Eigen::Vector3d& p : points) centre += p;
-  centre /= std::max<size_t>(1, points.size());
+  size_t count = 0;
+  for_each_point([&](const Eigen::Vector3d& p) {
+    centre += p;
+    ++count;
+  });
+  centre /= static_cast<double>(std::max<size_t>(1, count));
   double extent = 1e-3;
-  for (const Eigen::Vector3d& p : points) extent = std::max(extent, (p - centre).norm());
+  for_each_point([&](const Eigen::Vector3d& p) { extent = std::max(extent, (p - centre).norm()); });
   return extent;
 }
 

@@ -65,6 +65,17 @@ TEST_CASE("closed form: absolute orientation recovers poses all over SO(3)", "[i
   CHECK_FALSE(AbsoluteOrientation({from[0], from[1]}, {from[0], from[1]}, &untouched));
   const std::vector<Eigen::Vector3d> line = {{0, 0, 0}, {1, 0, 0}, {2, 0, 0}};
   CHECK_FALSE(AbsoluteOrientation(line, line, &untouched));
+  // Nearly collinear, far from the origin: a point a ten-thousandth of the line's length off
+  // it still fixes the turn about the line (the second spread is a millionth of the first at
+  // the limit); a hundred-millionth does not.
+  for (const auto& [h, solvable] : {std::pair{1e-4, true}, std::pair{1e-8, false}}) {
+    const Eigen::Vector3d far(100, -50, 30);
+    std::vector<Eigen::Vector3d> thin = {far, far + Eigen::Vector3d(1, 0, 0),
+                                         far + Eigen::Vector3d(2, 0, 0),
+                                         far + Eigen::Vector3d(1, h, 0)};
+    INFO("offset " << h);
+    CHECK(AbsoluteOrientation(thin, thin, &untouched) == solvable);
+  }
 }
 
 TEST_CASE("closed form: orthographic pose of a solid recovers rotation and image position",

@@ -192,6 +192,28 @@ TEST_CASE("reduced solver: what it does not take", "[interp]") {
   CHECK_FALSE(s.factorized);
   CHECK_FALSE(s.converged);
   CHECK(estimate.covariance.size() == 0);
+  // What it does not take, it says, and leaves the estimate as it was: a model without joints,
+  // and a forest of more parameters than it is allowed.
+  ReducedEstimate untouched;
+  untouched.analysed = true;
+  const ReducedSummary no_joints =
+      SolveReduced(lamp, {}, lamp.nominal, PriorVariance(lamp.blocks, PriorScale{}), &untouched);
+  CHECK(no_joints.unsupported == "the model has no joints");
+  CHECK_FALSE(no_joints.converged);
+  factors = testing::MeasureEveryPoint(box, kMotion, rng, &truth);
+  ReducedOptions small;
+  small.max_parameters = 6;
+  const ReducedSummary too_many =
+      SolveReduced(box, factors, box.nominal, PriorVariance(box.blocks, PriorScale{}), &untouched,
+                   small, &truth);
+  CHECK(too_many.unsupported == "7 parameters, more than 6");
+  CHECK(too_many.iterations == 0);
+  CHECK(untouched.analysed);
+  CHECK(untouched.mean.poses.empty());
+  small.max_parameters = 7;
+  CHECK(SolveReduced(box, factors, box.nominal, PriorVariance(box.blocks, PriorScale{}), &untouched,
+                     small, &truth)
+            .unsupported.empty());
 }
 
 // The fit and the counts on the parameters are AnalyseFit's on the whole state, at the reduced
