@@ -6,10 +6,8 @@
 
 #include <catch2/catch.hpp>
 #include <cmath>
-#include <random>
+#include <cstdint>
 #include <vector>
-
-#include "normal_search_internal.h"
 
 namespace cfuse {
 namespace {
@@ -113,44 +111,6 @@ TEST_CASE("normal search: the border ends the profile; bad arguments find nothin
   CHECK(Search(kStep, {97.3f, 50}, {1, 0}, -1).empty());
   CHECK(Search(kStep, {std::nanf(""), 50}, {1, 0}, 10).empty());
   CHECK(Search(kStep, {97.3f, 50}, {std::nanf(""), 0}, 10).empty());
-}
-
-TEST_CASE("normal search: the vector profile is the pixel-by-pixel one", "[vision]") {
-  // Noise over a few steps, read at random places, directions, ranges and widths (up to the
-  // image's border, and runs of every length mod 4): every profile value the same float. (A
-  // build that fuses multiply-adds may round the two forms apart: a thousandth of a grey level.)
-  std::mt19937 random(7);
-  std::vector<std::uint8_t> pixels(123 * 77);
-  std::uniform_int_distribution<int> grey(0, 255);
-  for (int y = 0; y < 77; ++y)
-    for (int x = 0; x < 123; ++x)
-      pixels[y * 123 + x] = static_cast<std::uint8_t>(x < 40   ? grey(random) / 4
-                                                      : x < 80 ? 200
-                                                               : grey(random));
-  const GrayView image{pixels.data(), 123, 77, 123};
-  std::uniform_real_distribution<float> along(0, 1);
-  int compared = 0, apart = 0;
-  for (int trial = 0; trial < 2000; ++trial) {
-    const float angle = 2 * static_cast<float>(M_PI) * along(random);
-    const Eigen::Vector2f normal(std::cos(angle), std::sin(angle)),
-        tangent(normal.y(), -normal.x());
-    const int h = trial % 4, K = 1 + trial % 23;
-    const Eigen::Vector2f point(h + 1 + K + along(random) * (121 - 2 * (h + 1 + K)),
-                                h + 1 + K + along(random) * (75 - 2 * (h + 1 + K)));
-    const int last = 2 * K + 2;
-    std::vector<float> scalar(last + 4, -1), vector(last + 4, -1);
-    internal::FillProfileScalar(image, point, normal, tangent, h, K, 0, last, scalar.data());
-    internal::FillProfile(image, point, normal, tangent, h, K, 0, last, vector.data());
-    for (int i = 0; i <= last; ++i) {
-      ++compared;
-      apart += scalar[i] != vector[i];
-      REQUIRE(vector[i] == Approx(scalar[i]).margin(1e-3));
-    }
-  }
-  CHECK(compared > 40000);
-#if !defined(__FMA__)
-  CHECK(apart == 0);
-#endif
 }
 
 }  // namespace
