@@ -26,7 +26,7 @@ std::vector<std::pair<const char*, Fill>> VectorForms() {
 #if defined(__SSE2__)
   forms.emplace_back("SSE2", &internal::FillProfileSse2);
 #endif
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#if defined(CFUSE_PROFILE_AVX2)
   if (internal::Avx2Available()) forms.emplace_back("AVX2", &internal::FillProfileAvx2);
 #endif
   return forms;

@@ -12,9 +12,8 @@
 #if defined(__SSE2__)
 #include <emmintrin.h>
 #endif
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#if defined(CFUSE_PROFILE_AVX2)
 #include <immintrin.h>
-#define CFUSE_PROFILE_AVX2 1
 #endif
 
 namespace cfuse {

@@ -8,6 +8,12 @@
 
 #include "cfuse/vision/segments.h"
 
+// The AVX2 form is compiled where the compiler can target it for one function and check the
+// processor at run time.
+#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#define CFUSE_PROFILE_AVX2 1
+#endif
+
 namespace cfuse::internal {
 
 // profile[i] = P(i - K - 1) = mean_{j = -h..h} I(point + (i - K - 1) normal + j tangent) for i in
@@ -25,7 +31,7 @@ void FillProfileSse2(const GrayView& image, const Eigen::Vector2f& point,
                      const Eigen::Vector2f& normal, const Eigen::Vector2f& tangent, int h, int K,
                      int first, int last, float* profile);  // four at a time
 #endif
-#if defined(__x86_64__) && (defined(__GNUC__) || defined(__clang__))
+#if defined(CFUSE_PROFILE_AVX2)
 bool Avx2Available();
 void FillProfileAvx2(const GrayView& image, const Eigen::Vector2f& point,
                      const Eigen::Vector2f& normal, const Eigen::Vector2f& tangent, int h, int K,
