@@ -721,18 +721,25 @@ void RetractOffset(GaussianState* state, Eigen::VectorXd* offset) {
 Prediction Predict(const Factor& factor, const GaussianState& state) {
   const ResidualFunction& f = *factor.residual;
   Prediction p;
-  Eigen::MatrixXd H;
+  // (Called for every edge of every predicted frame: the work matrices are kept per thread.)
+  thread_local Eigen::MatrixXd H, P;
+  thread_local std::vector<int> index;
   EvaluateResidual(f, state.blocks, factor.blocks, state.mean, &p.mean, &H);
   if (!p.mean.allFinite() || !H.allFinite()) return p;
-  std::vector<int> index;
+  index.clear();
   for (int b : factor.blocks) {
     const Block& block = state.blocks.at(b);
     for (int i = 0; i < TangentDim(block.kind); ++i) index.push_back(block.tangent_offset + i);
   }
-  const Eigen::MatrixXd P = state.covariance(index, index);
-  p.covariance = H * P * H.transpose();
-  // eval(): the transpose reads what the assignment writes (Eigen does not guard against it).
-  p.covariance = (0.5 * (p.covariance + p.covariance.transpose())).eval();
+  P = state.covariance(index, index);
+  p.covariance.noalias() = H * P * H.transpose();
+  // Symmetric to the last bit: both halves the same mean (the sum commutes exactly).
+  for (Eigen::Index j = 0; j < p.covariance.cols(); ++j) {
+    for (Eigen::Index i = 0; i < j; ++i) {
+      const double mean = 0.5 * (p.covariance(i, j) + p.covariance(j, i));
+      p.covariance(i, j) = p.covariance(j, i) = mean;
+    }
+  }
   p.valid = p.covariance.allFinite();
   return p;
 }

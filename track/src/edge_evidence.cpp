@@ -5,6 +5,7 @@
 #include <limits>
 
 #include "cfuse/vision/segment_index.h"
+#include "line_vote.h"
 
 namespace cfuse {
 
@@ -87,26 +88,15 @@ double Overlap(const EdgeModel& e, const EdgeCandidate& c) {
 
 namespace {
 
+using internal::Hit;
+using internal::Line;
+using internal::Sample;
+using internal::Vote;
+using internal::VotePoints;
+
 // px: a hit wider than this at half maximum is smeared by motion (cfuse/vision/normal_search.h:
 // real edges are 2 to 4 px wide); its width beyond is counted as the edge's error.
 constexpr float kSmearedWidth = 5;
-
-struct Sample {
-  double s = 0;              // px along the piece from a
-  int first = 0, count = 0;  // its hits in the piece's hit list
-};
-
-struct Hit {
-  float offset = 0, contrast = 0, width = 0;
-  bool used = false;
-};
-
-// A line d(s) = c0 + c1 (s - centre) across the piece (d along the normal, px), fitted to one
-// hit per sample.
-struct Line {
-  double c0 = 0, c1 = 0, centre = 0;
-  double Offset(double s) const { return c0 + c1 * (s - centre); }
-};
 
 // For every sample, its unused hit nearest the line within `inlier` px, or -1.
 void Inliers(const std::vector<Sample>& samples, const std::vector<Hit>& hits, const Line& line,
@@ -162,43 +152,6 @@ bool Fit(const std::vector<Sample>& samples, const std::vector<Hit>& hits,
   return true;
 }
 
-// The Hough vote: the line through the most unused hits (within a 3-px band), over slopes
-// |c1| <= max_slope in steps that move the piece's ends by a pixel, and offsets within reach.
-bool Vote(const std::vector<Sample>& samples, const std::vector<Hit>& hits, double length,
-          double max_slope, double reach, std::vector<int>* votes, Line* line) {
-  const double centre = 0.5 * length;
-  double step = 2.0 / std::max(length, 1.0);
-  int half = static_cast<int>(std::ceil(max_slope / step));
-  if (half > 30) {
-    half = 30;
-    step = max_slope / half;
-  }
-  const double extent = reach + max_slope * 0.5 * length + 2;
-  const int bins = 2 * static_cast<int>(std::ceil(extent)) + 1;
-  const int origin = bins / 2;
-  int best = 0;
-  for (int j = -half; j <= half; ++j) {
-    const double slope = j * step;
-    votes->assign(bins, 0);
-    for (const Sample& k : samples) {
-      for (int h = k.first; h < k.first + k.count; ++h) {
-        if (hits[h].used) continue;
-        const int b =
-            origin + static_cast<int>(std::lround(hits[h].offset - slope * (k.s - centre)));
-        if (b >= 0 && b < bins) ++(*votes)[b];
-      }
-    }
-    for (int b = 1; b + 1 < bins; ++b) {
-      const int v = (*votes)[b - 1] + (*votes)[b] + (*votes)[b + 1];
-      if (v > best) {
-        best = v;
-        *line = Line{static_cast<double>(b - origin), slope, centre};
-      }
-    }
-  }
-  return best >= 3;
-}
-
 }  // namespace
 
 std::vector<EdgeCandidate> NormalSearchCandidates(const GrayView& image,
@@ -210,7 +163,8 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const GrayView& image,
   std::vector<Sample> samples;
   std::vector<Hit> hits;
   std::vector<ProfileHit> found;
-  std::vector<int> votes, chosen;
+  std::vector<int> chosen;
+  VotePoints vote;
   for (size_t i = 0; i < edges.size(); ++i) {
     const EdgeModel& e = edges[i];
     const double margin = std::min(options.end_margin, 0.25 * e.length);
@@ -250,7 +204,7 @@ std::vector<EdgeCandidate> NormalSearchCandidates(const GrayView& image,
     const size_t before = out.size();
     for (int line_index = 0; line_index < options.max_lines; ++line_index) {
       Line line;
-      if (!Vote(samples, hits, e.length, max_slope, reach, &votes, &line)) break;
+      if (!Vote(samples, hits, e.length, max_slope, reach, &vote, &line)) break;
       double scatter = 0, sxx = 0;
       int count = 0;
       bool fitted = false;

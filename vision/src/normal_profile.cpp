@@ -130,12 +130,12 @@ __attribute__((target("avx2"))) void FillProfileAvx2(const GrayView& image,
   // [0, width - 1) x [0, height - 1), so the row's read ends at most at the last row, and the
   // next row's starts at least two bytes into the image).
   const __m256i back = _mm256_set1_epi32(2);
+  const __m256i lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+  const __m256i k_last = _mm256_set1_epi32(last - K - 1);
   for (int i = first; i <= last; i += 8) {
     // Lanes past `last` repeat it (its taps are inside the image); their values are not kept.
-    const __m256 k = _mm256_cvtepi32_ps(_mm256_setr_epi32(
-        i - K - 1, std::min(i + 1, last) - K - 1, std::min(i + 2, last) - K - 1,
-        std::min(i + 3, last) - K - 1, std::min(i + 4, last) - K - 1, std::min(i + 5, last) - K - 1,
-        std::min(i + 6, last) - K - 1, std::min(i + 7, last) - K - 1));
+    const __m256 k = _mm256_cvtepi32_ps(
+        _mm256_min_epi32(_mm256_add_epi32(_mm256_set1_epi32(i - K - 1), lane), k_last));
     const __m256 cx = _mm256_add_ps(px, _mm256_mul_ps(k, nx));
     const __m256 cy = _mm256_add_ps(py, _mm256_mul_ps(k, ny));
     __m256 sum = _mm256_setzero_ps();

@@ -31,24 +31,28 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
   const int hi = std::min(last - 1, K + 1 + static_cast<int>(std::floor(range)));
   if (hi < lo) return 0;
   auto d = [&](int i) { return profile[i + 1] - profile[i - 1]; };
+  // |D| over the valid run, 0 at its two ends (where D does not exist): a loop the compiler
+  // vectorises, and the scan below reads each value once.
+  float magnitude[2 * kMaxReach + 3];
+  magnitude[first] = magnitude[last] = 0.f;
+  for (int i = first + 1; i <= last - 1; ++i) magnitude[i] = std::abs(d(i));
   const float threshold = static_cast<float>(options.min_contrast);
   const int before = static_cast<int>(hits->size());
   for (int i = lo; i <= hi; ++i) {
-    const float here = std::abs(d(i));
+    const float here = magnitude[i];
     if (here < threshold) continue;
     // A strict maximum on the left, at least as large as the right: a plateau of two equal
     // values (an ideal step between two pixels) is taken once, at its left end.
-    const float left = i - 1 >= first + 1 ? std::abs(d(i - 1)) : 0.f;
-    const float right = i + 1 <= last - 1 ? std::abs(d(i + 1)) : 0.f;
+    const float left = magnitude[i - 1], right = magnitude[i + 1];
     if (!(here > left && here >= right)) continue;
     // The run above half the peak, within the valid profile: the hit's width.
     const float half = 0.5f * here;
     int a = i, b = i;
-    while (a - 1 >= first + 1 && std::abs(d(a - 1)) >= half) --a;
-    while (b + 1 <= last - 1 && std::abs(d(b + 1)) >= half) ++b;
+    while (a - 1 >= first + 1 && magnitude[a - 1] >= half) --a;
+    while (b + 1 <= last - 1 && magnitude[b + 1] >= half) ++b;
     auto crossing = [&](int inside, int outside) {
-      const float vi = std::abs(d(inside));
-      const float vo = outside >= first + 1 && outside <= last - 1 ? std::abs(d(outside)) : 0.f;
+      const float vi = magnitude[inside];
+      const float vo = outside >= first + 1 && outside <= last - 1 ? magnitude[outside] : 0.f;
       return static_cast<float>(inside) +
              (vi > vo ? (vi - half) / (vi - vo) : 0.5f) * static_cast<float>(outside - inside);
     };
