@@ -5,6 +5,10 @@
 
 #include "normal_search_internal.h"
 
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
+
 namespace cfuse {
 
 int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
@@ -32,19 +36,18 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
   if (hi < lo) return 0;
   auto d = [&](int i) { return profile[i + 1] - profile[i - 1]; };
   // |D| over the valid run, 0 at its two ends (where D does not exist): a loop the compiler
-  // vectorises, and the scan below reads each value once.
+  // vectorises, and the scan below reads.
   float magnitude[2 * kMaxReach + 3];
   magnitude[first] = magnitude[last] = 0.f;
   for (int i = first + 1; i <= last - 1; ++i) magnitude[i] = std::abs(d(i));
   const float threshold = static_cast<float>(options.min_contrast);
   const int before = static_cast<int>(hits->size());
-  for (int i = lo; i <= hi; ++i) {
+  // A hit at profile index i: |D| at least the threshold, a strict maximum on the left and at
+  // least as large as the right (a plateau of two equal values, an ideal step between two
+  // pixels, is taken once, at its left end).
+  auto hit = [&](int i) {
     const float here = magnitude[i];
-    if (here < threshold) continue;
-    // A strict maximum on the left, at least as large as the right: a plateau of two equal
-    // values (an ideal step between two pixels) is taken once, at its left end.
     const float left = magnitude[i - 1], right = magnitude[i + 1];
-    if (!(here > left && here >= right)) continue;
     // The run above half the peak, within the valid profile: the hit's width.
     const float half = 0.5f * here;
     int a = i, b = i;
@@ -68,6 +71,23 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
                   (curvature < 0 ? std::clamp(0.5f * (left - right) / curvature, -0.5f, 0.5f)
                                  : 0.f);
     hits->push_back({centre - static_cast<float>(K + 1), d(i), width});
+  };
+  int i = lo;
+#if defined(__SSE2__)
+  // Four indices tested at once, the hits among them taken in order (most indices are none).
+  const __m128 at_least = _mm_set1_ps(threshold);
+  for (; i + 3 <= hi; i += 4) {
+    const __m128 here = _mm_loadu_ps(magnitude + i);
+    const __m128 peak = _mm_and_ps(_mm_and_ps(_mm_cmpge_ps(here, at_least),
+                                              _mm_cmpgt_ps(here, _mm_loadu_ps(magnitude + i - 1))),
+                                   _mm_cmpge_ps(here, _mm_loadu_ps(magnitude + i + 1)));
+    for (int mask = _mm_movemask_ps(peak); mask != 0; mask &= mask - 1)
+      hit(i + __builtin_ctz(mask));
+  }
+#endif
+  for (; i <= hi; ++i) {
+    const float here = magnitude[i];
+    if (here >= threshold && here > magnitude[i - 1] && here >= magnitude[i + 1]) hit(i);
   }
   // The strongest first, at most max_hits.
   auto begin = hits->begin() + before;
