@@ -53,6 +53,35 @@ TEST_CASE("camera: projection equals OpenCV's projectPoints for 0, 4, 5, 8 and 1
   }
 }
 
+TEST_CASE("camera: without distortion, the general formula's values and derivatives exactly",
+          "[kernel]") {
+  // A last coefficient of 1e-300 sends Project through the distortion polynomial, and adds
+  // nothing a double can hold to these points' pixels: the short path must give the same bits.
+  const Camera plain = TestCamera(0);
+  Camera general = plain;
+  general.distortion[11] = 1e-300;
+  REQUIRE_FALSE(plain.Distorted());
+  REQUIRE(general.Distorted());
+  using Dual = Eigen::AutoDiffScalar<Eigen::Vector3d>;
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<double> xy(-0.6, 0.6), z(0.2, 4.0);
+  for (int i = 0; i < 2000; ++i) {
+    const double depth = z(rng);
+    const Eigen::Vector3d p(xy(rng) * depth, xy(rng) * depth, depth);
+    const Eigen::Vector2d a = plain.Project<double>(p), b = general.Project<double>(p);
+    REQUIRE(a.x() == b.x());
+    REQUIRE(a.y() == b.y());
+    Vector3<Dual> q;
+    for (int k = 0; k < 3; ++k) q[k] = Dual(p[k], 3, k);
+    const Eigen::Matrix<Dual, 2, 1> da = plain.Project<Dual>(q), db = general.Project<Dual>(q);
+    for (int r = 0; r < 2; ++r) {
+      REQUIRE(da[r].value() == db[r].value());
+      // (The coefficient's own derivative terms, of order 1e-297, are the only difference.)
+      REQUIRE((da[r].derivatives() - db[r].derivatives()).cwiseAbs().maxCoeff() < 1e-290);
+    }
+  }
+}
+
 TEST_CASE("camera: a point at or behind the centre projects to NaN", "[kernel]") {
   const Camera camera = TestCamera(5);
   CHECK(std::isnan(camera.Project<double>(Eigen::Vector3d(0.1, 0, 0)).x()));
