@@ -35,8 +35,8 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
   const int hi = std::min(last - 1, K + 1 + static_cast<int>(std::floor(range)));
   if (hi < lo) return 0;
   auto d = [&](int i) { return profile[i + 1] - profile[i - 1]; };
-  // |D| over the valid run, 0 at its two ends (where D does not exist): a loop the compiler
-  // vectorises, and the scan below reads.
+  // |D| over the valid run, 0 at its two ends (where D does not exist), computed once in a loop
+  // the compiler vectorises: the peak test and the hits' widths below read it.
   float magnitude[2 * kMaxReach + 3];
   magnitude[first] = magnitude[last] = 0.f;
   for (int i = first + 1; i <= last - 1; ++i) magnitude[i] = std::abs(d(i));
@@ -81,8 +81,9 @@ int SearchAlongNormal(const GrayView& image, const Eigen::Vector2f& point,
     const __m128 peak = _mm_and_ps(_mm_and_ps(_mm_cmpge_ps(here, at_least),
                                               _mm_cmpgt_ps(here, _mm_loadu_ps(magnitude + i - 1))),
                                    _mm_cmpge_ps(here, _mm_loadu_ps(magnitude + i + 1)));
-    for (int mask = _mm_movemask_ps(peak); mask != 0; mask &= mask - 1)
+    for (int mask = _mm_movemask_ps(peak); mask != 0; mask &= mask - 1) {
       hit(i + __builtin_ctz(mask));
+    }
   }
 #endif
   for (; i <= hi; ++i) {

@@ -26,6 +26,7 @@ struct Camera {
   int width = 0, height = 0;              // pixels; 0 = unknown
   std::array<double, 12> distortion{};    // k1 k2 p1 p2 k3 k4 k5 k6 s1 s2 s3 s4
 
+  // Whether any distortion coefficient is non-zero (a pinhole without them projects directly).
   bool Distorted() const {
     for (double d : distortion) {
       if (d != 0) return true;
