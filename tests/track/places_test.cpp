@@ -89,8 +89,8 @@ TEST_CASE("places: the first frame is settled from places about its estimate, no
     CHECK(e->verified == 3);
     for (double t : e->translation_mm) CHECK(t < 5);
   }
-  // Four places on a ring, two in depth, four tilted and four lid angles: each a search of its
-  // own.
+  // Four lid angles, and places on a ring, in depth and tilted when the frame is less well
+  // supported: each a search of its own.
   CHECK(settled.track[0].branches > plain.track[0].branches);
   for (int i = 1; i < 3; ++i) CHECK(settled.track[i].branches == plain.track[i].branches);
 }

@@ -215,10 +215,15 @@ std::vector<Values> Tracker::JointPlaces(const Values& centre) const {
 
 void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   std::vector<Values> places;
-  for (int k = 0; k < options_.settle_places; ++k) {
+  // A track's first frame supported along most of its outline is not a pose slid, tilted or set
+  // on a window: those line up half to two thirds of it. (A frame after a loss is settled from
+  // every place: the object may have moved anywhere while it was lost.)
+  const bool plain =
+      verified_frames_ == 0 && out->verification.share >= options_.settle_places_below_share;
+  for (int k = 0; !plain && k < options_.settle_places; ++k) {
     places.push_back(RingPlace(out->estimate.mean, 1, 2 * M_PI * k / options_.settle_places));
   }
-  for (int k = 0; k < options_.settle_depths; ++k) {
+  for (int k = 0; !plain && k < options_.settle_depths; ++k) {
     places.push_back(DepthPlace(out->estimate.mean, k));
   }
   // (At a track's first frame only: after a loss the frames before held the object's
