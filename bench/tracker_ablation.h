@@ -16,7 +16,9 @@ namespace cfuse::bench {
 
 inline constexpr const char* kSafeguards =
     "settle (every settling place), settle-tilts (the places turned about the image's axes), "
-    "settle-joints (joints across their limits), widen (the "
+    "settle-joints (joints across their limits), settle-last-seen (after a loss, the places about "
+    "the last verified pose), limit-carry (a lost frame's estimate carried with a joint pushed "
+    "onto its limit), widen (the "
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle), "
     "unknown-motion (the doubled range tried at a track's second frame), ambiguous-places (a "
@@ -34,6 +36,10 @@ inline void DisableSafeguards(const std::string& list, TrackerOptions* options) 
       options->settle_tilts = 0;
     } else if (name == "settle-joints") {
       options->settle_joint_values = 0;
+    } else if (name == "settle-last-seen") {
+      options->settle_from_last_seen = false;
+    } else if (name == "limit-carry") {
+      options->carry_joints_at_limits = true;
     } else if (name == "widen") {
       options->prior_confidence = 1;
     } else if (name == "outdone") {

@@ -32,6 +32,11 @@ struct Errors {
   std::vector<double> translation_mm, rotation_deg, joint_deg;  // of the verified frames
   std::vector<TrackedFrame> track;
 
+  // Verified frames with the first joint more than `degrees` off.
+  long JointOff(double degrees) const {
+    return std::count_if(joint_deg.begin(), joint_deg.end(), [&](double d) { return d > degrees; });
+  }
+
   static double Quantile(std::vector<double> v, double q) {
     if (v.empty()) return 0;
     std::sort(v.begin(), v.end());

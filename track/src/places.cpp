@@ -1,6 +1,6 @@
 // The tracker's places other than the prediction (tracker.h): the rings of re-acquisition, and
 // the settling of a frame verified after a loss from places about its estimate, along the line
-// of sight and across each joint's range.
+// of sight and across each joint's range, and about the pose last verified.
 #include <fmt/format.h>
 
 #include <cmath>
@@ -161,6 +161,22 @@ double Tracker::JointPixels(const Joint& joint, const Values& values) const {
                                              : pixels * std::max(radius_[child.block], 1e-3);
 }
 
+bool Tracker::PushedToLimit(const Values& estimate, const Values& predicted) const {
+  for (const Joint& joint : graph_.joints) {
+    if (!Settleable(joint) || !joint.limits) continue;
+    const double pixels = JointPixels(joint, estimate);
+    const double now = JointValue(joint, estimate);
+    const double was = JointValue(joint, predicted);
+    for (const double limit : {joint.limits->first, joint.limits->second}) {
+      if (std::abs(now - limit) * pixels < 1 &&
+          std::abs(was - limit) * pixels > options_.search_pixels) {
+        return true;
+      }
+    }
+  }
+  return false;
+}
+
 std::vector<Values> Tracker::JointPlaces(const Values& centre) const {
   std::vector<Values> out;
   for (const Joint& joint : graph_.joints) {
@@ -237,6 +253,11 @@ void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   }
   const size_t tilts_to = places.size();
   for (Values& v : JointPlaces(out->estimate.mean)) places.push_back(std::move(v));
+  // After a loss, where the object was last seen too (TrackerOptions::settle_from_last_seen).
+  if (options_.settle_from_last_seen && verified_frames_ > 0) {
+    places.push_back(last_seen_);
+    for (Values& v : JointPlaces(last_seen_)) places.push_back(std::move(v));
+  }
 
   FrameTimes spent = out->times;
   int branches = out->branches;

@@ -250,7 +250,9 @@ TrackedFrame Tracker::Track(const GrayView& image) {
     history_.push_back({frame_, out.estimate.mean});
     if (history_.size() > 2) history_.erase(history_.begin());
     last_verified_ = frame_;
-  } else if (undetermined_) {
+    last_seen_ = out.estimate.mean;
+  } else if (undetermined_ &&
+             (options_.carry_joints_at_limits || !PushedToLimit(undetermined_->mean, predicted))) {
     // A set passed every test of the outline, its precision alone did not: its estimate is
     // nearer than the prediction (motion blur widens the edges while the object runs on).
     out.estimate = std::move(*undetermined_);

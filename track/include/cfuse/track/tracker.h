@@ -26,14 +26,16 @@
 //  6. Recovery. With no set verified, the search range doubles and the frame is tried again,
 //     at most `max_doublings` times. A frame still not verified is lost: its estimate is the
 //     prediction, and the next frame predicts from the last verified ones (or from a set that
-//     passed every test of the outline but left the pose undetermined: motion blur). After a
+//     passed every test of the outline but left the pose undetermined: motion blur; unless a
+//     limit, not the image, held one of its joints). After a
 //     loss, every following frame is also searched from places around the last verified pose,
 //     in rings that grow with the frames lost (re-acquisition), until the object is verified
 //     again. A frame found only by doubling or re-acquisition broke with the motion so far:
 //     its step is not taken for a velocity.
 //  7. Settling. The first frame verified, and the first after a loss, is tracked again from
-//     other places and joint values (TrackerOptions::settle_places): a decisively better pose
-//     replaces it, an equally good one with a joint or a part elsewhere refuses it as ambiguous.
+//     other places and joint values (TrackerOptions::settle_places), after a loss from where the
+//     object was last verified too: a decisively better pose replaces it, an equally good one
+//     with a joint or a part elsewhere refuses it as ambiguous.
 //
 // The estimate's prior is the prediction; an estimate far outside it (a start far off, a knock)
 // is solved again with the prior widened, so that a wrong prediction does not pull it along
@@ -137,6 +139,19 @@ struct TrackerOptions {
   // A place's pose that explains about as much with a rigid part more than `search_pixels` from
   // the frame's (its points' RMS shift, in px at its depth) makes the frame ambiguous too.
   bool refuse_ambiguous_places = true;
+  // A frame verified after a loss is settled from the pose last verified as well, and from each
+  // joint there at `settle_joint_values` values: the estimate found after a loss may hold a part
+  // wrong and its parent moved to make up for it (a lid shut on the box's rim while it stands
+  // open, the box 20 mm off so that the closed outline lines up with the open box's), and the
+  // joint places about that estimate leave the parent where it is, where no other joint value
+  // lines up.
+  bool settle_from_last_seen = true;
+  // A frame lost for its precision alone carries its estimate to the next frame's prediction
+  // (TrackedFrame::imprecise), but not one with a joint pushed onto a limit that the prediction
+  // held it more than `search_pixels` from: the limit, not the image, placed that part (the lid
+  // shut on the rim), and the frames after would be searched from it. (true: carried all the
+  // same.)
+  bool carry_joints_at_limits = false;
   MatchSearchOptions search;
   EvidenceOptions evidence_options;
   VerificationOptions verification;
@@ -255,6 +270,9 @@ class Tracker {
   std::vector<Values> JointPlaces(const Values& centre) const;
   // Whether the settling varies `joint` (a variable, not a mimic, between two rigid parts).
   bool Settleable(const Joint& joint) const;
+  // Whether a joint of `estimate` lies within a pixel of one of its limits while in `predicted`
+  // it lies more than search_pixels from it.
+  bool PushedToLimit(const Values& estimate, const Values& predicted) const;
   // The most any rigid component's points move between `a` and `b` (RMS, px at its depth in `a`).
   double Apart(const Values& a, const Values& b) const;
   // `joint`'s value in `values` (rad or m), and px in the image per unit of it (its child's
@@ -287,6 +305,7 @@ class Tracker {
   // The last two verified frames' indices and configurations, newest last.
   std::vector<std::pair<int, Values>> history_;
   int last_verified_ = -1;  // frame index; -1 before the first
+  Values last_seen_;        // the last verified frame's estimate
   int frame_ = 0;           // the index of the next frame
   // The best share of a set the outline verified in this frame, determined by its matches or not,
   // and the best-supported set refused for its precision alone, with its share.
