@@ -206,6 +206,32 @@ std::vector<std::pair<double, double>> UnhiddenRuns(const ModelEdge& e,
     }
     hiding.push_back(f);
   }
+  // A face whose plane lies beyond the whole edge, or behind the camera along every ray through
+  // it, hides none of its samples: the plane's ray parameter is monotone along the edge when the
+  // edge stays on one side of the plane through the camera. Dropped with a margin far above
+  // rounding, so that each sample's own test would have said the same.
+  if (camera.model == Camera::Model::kPinhole) {
+    const Eigen::Vector3d P0 = A + s0 * (B - A), P1 = A + s1 * (B - A);
+    std::erase_if(hiding, [&](const SeenFace* f) {
+      const double at0 = f->normal.dot(P0), at1 = f->normal.dot(P1);
+      const double least = std::min(std::abs(at0), std::abs(at1));
+      if ((at0 > 0) != (at1 > 0) || least < 1e-9) return false;
+      const double plane = f->normal.dot(f->corners[0]);
+      const double t0 = plane / at0, t1 = plane / at1;
+      const double slack = 1e-6 * (1 + std::abs(plane) / least);
+      return std::max(t0, t1) < -slack || std::min(t0, t1) > 1 - 1e-3 + slack;
+    });
+    // Without distortion the samples' images lie on the segment between the ends' images: a
+    // face whose image box misses the segment's box contains none of them.
+    if (!camera.Distorted() && P0.z() > 0 && P1.z() > 0) {
+      const Eigen::Vector2d p0 = camera.Project<double>(P0), p1 = camera.Project<double>(P1);
+      const Eigen::Vector2d lo = p0.cwiseMin(p1).array() - 1e-6;
+      const Eigen::Vector2d hi = p0.cwiseMax(p1).array() + 1e-6;
+      std::erase_if(hiding, [&](const SeenFace* f) {
+        return f->hi.x() < lo.x() || f->lo.x() > hi.x() || f->hi.y() < lo.y() || f->lo.y() > hi.y();
+      });
+    }
+  }
   if (hiding.empty()) return {{s0, s1}};
   const int n = std::max(16, static_cast<int>(std::ceil(image_length / 2)));
   std::vector<std::pair<double, double>> runs;
