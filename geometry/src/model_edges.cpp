@@ -293,10 +293,6 @@ std::vector<ProjectedEdge> VisibleEdges(const ConstraintGraph& graph,
       return face.front && !face.shows;
     };
     const bool any_thin = std::any_of(e.faces.begin(), e.faces.end(), thin);
-    double twin_width = 0;
-    for (int f : e.faces) {
-      if (thin(f)) twin_width = std::max(twin_width, seen.at({e.component, f}).width);
-    }
     const bool any_shows = std::any_of(e.faces.begin(), e.faces.end(), shows);
     if (!e.faces.empty()) {
       if (visibility.min_face_width > 0 && any_thin) {

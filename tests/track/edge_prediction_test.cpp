@@ -87,7 +87,7 @@ TEST_CASE("edge prediction: each visible piece where the mean projects it", "[tr
     CHECK((start + e.t0 * (end - start) - e.A).norm() < 1e-9);
     CHECK((start + e.t1 * (end - start) - e.B).norm() < 1e-9);
     // A state known exactly: only the pixel noise is left.
-    CHECK(e.noise == Approx(std::hypot(0.5, p.twin_width)));
+    CHECK(e.noise == 0.5);
     CHECK(e.var_a < 1e-6);
     CHECK(e.sigma_x == Approx(e.noise).epsilon(1e-4));
     CHECK(e.sigma_y == Approx(std::sqrt(2.0) * e.noise / e.length).epsilon(1e-4));

@@ -81,8 +81,10 @@ std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
     e.silhouette = !m.faces.empty() && front == 1 && m.faces.size() <= 2 &&
                    (m.faces.size() == 1 || front == 1);
     SetImage(p.a, p.b, &e);
-    // An edge with a twin (a thin face's far side) that close: the image may show either.
-    e.noise = std::hypot(pixel_sigma, p.twin_width);
+    // (A thin face's twin edge, the image showing either, was tried as noise here, the face's
+    // width: the rigid and hinged boxes were refused far more often, and verified no fewer
+    // wrong frames; docs/benchmarks.md.)
+    e.noise = pixel_sigma;
     if (!PredictVariance(camera, state, &e)) continue;
     out.push_back(e);
   }

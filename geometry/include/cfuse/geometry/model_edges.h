@@ -38,9 +38,6 @@ struct ProjectedEdge {
   int edge = -1;         // index into ModelEdges()
   Eigen::Vector3d A, B;  // its visible part in the camera frame, metres
   Eigen::Vector2d a, b;  // the same projected and clipped to the image, pixels
-  // px: the width of the front face too thin to show that it bounds (Visibility::
-  // min_face_width), or 0: the image may show its twin, that far off, instead of it.
-  double twin_width = 0;
 };
 
 // Stricter visibility, for matching (the tracker): a face shows its edges only when it turns

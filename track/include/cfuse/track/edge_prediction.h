@@ -34,8 +34,7 @@ struct EdgeModel {
   // The covariance of the perpendicular position of a and of b (prediction only, px²).
   double var_a = 0, var_b = 0, cov_ab = 0;
   double sigma_x = 0, sigma_y = 0;  // midpoint across (px) and angle (rad), noise included
-  // px: a measured end's error across the edge: the model's and the camera's, and a twin's
-  // distance (ProjectedEdge::twin_width) for an edge of a face too thin to show.
+  // px: a measured end's error across the edge: the model's and the camera's.
   double noise = 1;
 
   // The standard deviation of the perpendicular position at fraction u of the piece (0 at a).
