@@ -82,8 +82,8 @@ std::vector<EdgeModel> PredictEdges(const ConstraintGraph& graph,
                    (m.faces.size() == 1 || front == 1);
     SetImage(p.a, p.b, &e);
     // (A thin face's twin edge, the image showing either, was tried as noise here, the face's
-    // width: the rigid and hinged boxes were refused far more often, and verified no fewer
-    // wrong frames; docs/benchmarks.md.)
+    // width: the rigid and hinged boxes were refused far more often, and two wrong frames were
+    // verified where none had been; docs/benchmarks.md.)
     e.noise = pixel_sigma;
     if (!PredictVariance(camera, state, &e)) continue;
     out.push_back(e);
