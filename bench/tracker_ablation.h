@@ -17,7 +17,9 @@ namespace cfuse::bench {
 inline constexpr const char* kSafeguards =
     "settle (every settling place), settle-tilts (the places turned about the image's axes), "
     "settle-joints (joints across their limits), settle-last-seen (after a loss, the places about "
-    "the last verified pose), limit-carry (a lost frame's estimate carried with a joint pushed "
+    "the last verified pose), reacquire-last-verified (the rings about the last verified pose "
+    "when the carried estimate strayed), limit-carry (a lost frame's estimate carried with a joint "
+    "pushed "
     "onto its limit), widen (the "
     "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle), "
@@ -38,6 +40,8 @@ inline void DisableSafeguards(const std::string& list, TrackerOptions* options) 
       options->settle_joint_values = 0;
     } else if (name == "settle-last-seen") {
       options->settle_from_last_seen = false;
+    } else if (name == "reacquire-last-verified") {
+      options->reacquire_about_last_verified = false;
     } else if (name == "limit-carry") {
       options->carry_joints_at_limits = true;
     } else if (name == "widen") {

@@ -89,6 +89,20 @@ bool Tracker::Reacquire(const GrayView& image, const Values& centre, TrackedFram
   return found;
 }
 
+bool Tracker::ReacquireLost(const GrayView& image, TrackedFrame* out) {
+  const int ring = reacquisition_ring_;
+  if (Reacquire(image, history_.back().second, out)) return true;
+  const bool strayed = history_.back().first != last_verified_ &&
+                       Apart(history_.back().second, last_seen_) > options_.search_pixels;
+  if (!options_.reacquire_about_last_verified || !strayed) return false;
+  // The same rings about the verified pose; the next frame goes on from the further of the two.
+  const int reached = reacquisition_ring_;
+  reacquisition_ring_ = ring;
+  const bool found = Reacquire(image, last_seen_, out);
+  reacquisition_ring_ = std::max(reached, reacquisition_ring_);
+  return found;
+}
+
 Values Tracker::DepthPlace(const Values& centre, int k) const {
   const Eigen::Vector3d at = RootOrigin(centre);
   if (camera_.model == Camera::Model::kOrthographic || at.z() <= 0) return centre;

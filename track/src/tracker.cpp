@@ -210,9 +210,7 @@ TrackedFrame Tracker::Track(const GrayView& image) {
   // ring that finds the object kept. (The same search at the first frame, keeping the estimate
   // that explains the most of the outline, was tried against starts far off: it found more
   // frames but verified more wrong ones, and moved castel's track by 12 mm.)
-  if (!out.verified && lost > 0 && Reacquire(image, history_.back().second, &out)) {
-    out.reacquired = true;
-  }
+  if (!out.verified && lost > 0 && ReacquireLost(image, &out)) out.reacquired = true;
   if (out.verified && (last_verified_ < 0 || lost > 0 || out.reacquired)) Settle(image, &out);
   // A pose the outline supports better but its matches leave undetermined (an occluder hides
   // what would fix it) against a worse-supported one that is determined: the second has taken

@@ -107,9 +107,16 @@ struct TrackerOptions {
   // rendered castle's stairs): docs/benchmarks.md.
   bool refine_strongest = false;
   double refine_reach = 8;
-  // Places tried a frame around the last verified pose while the object is lost (rings 2 x
-  // search_pixels apart: 6, 12, 18, ... places).
+  // Places tried a frame while the object is lost, in rings 2 x search_pixels apart (6, 12, 18,
+  // ... places) about the last pose carried: the last verified one, or an imprecise frame's
+  // estimate after it (TrackedFrame::imprecise).
   int reacquisition_places = 12;
+  // When that carried estimate has strayed more than search_pixels from the last verified pose,
+  // the rings are searched about the verified pose as well, when they find nothing about the
+  // carried one. Undetermined estimates of a blurred or half-hidden object can run off (a box
+  // carried 30 cm nearer than it was, then predicted 2.5 m away), and rings about them never
+  // reach the object, which is still about where it was last seen.
+  bool reacquire_about_last_verified = true;
   // A frame verified with no verified frame just before it (the first, or one after a loss)
   // came from a prior that may be far off, or stale: a pose slid by one of the object's repeated
   // parts, or nearer and turned, and a lid found shut on the box's rim while it stands open, can
@@ -249,6 +256,9 @@ class Tracker {
   // each frame: `reacquisition_ring_`); keeps in `out` the best verified estimate (the most of
   // the outline supported) of the first ring that finds one. True when one was found.
   bool Reacquire(const GrayView& image, const Values& centre, TrackedFrame* out);
+  // Re-acquisition about the last pose carried, then (reacquire_about_last_verified) about the
+  // last verified one, from the same ring.
+  bool ReacquireLost(const GrayView& image, TrackedFrame* out);
   // The root component's origin (camera frame), and px per metre across the line of sight at
   // `depth`.
   Eigen::Vector3d RootOrigin(const Values& values) const;
