@@ -19,9 +19,8 @@ inline constexpr const char* kSafeguards =
     "settle-joints (joints across their limits), settle-last-seen (after a loss, the places about "
     "the last verified pose), reacquire-last-verified (the rings about the last verified pose "
     "when the carried estimate strayed), limit-carry (a lost frame's estimate carried with a joint "
-    "pushed "
-    "onto its limit), widen (the "
-    "prior widened when the estimate leaves it), outdone (a set outdone by another refused), "
+    "pushed onto its limit), widen (the prior widened when the estimate leaves it), outdone (a "
+    "set outdone by another refused), "
     "own-support (each part's own edges), smeared (blurred edges at their middle), "
     "unknown-motion (the doubled range tried at a track's second frame), ambiguous-places (a "
     "settling place's pose as well supported elsewhere refuses the frame)";

@@ -92,9 +92,10 @@ bool Tracker::Reacquire(const GrayView& image, const Values& centre, TrackedFram
 bool Tracker::ReacquireLost(const GrayView& image, TrackedFrame* out) {
   const int ring = reacquisition_ring_;
   if (Reacquire(image, history_.back().second, out)) return true;
+  if (!options_.reacquire_about_last_verified) return false;
   const bool strayed = history_.back().first != last_verified_ &&
                        Apart(history_.back().second, last_seen_) > options_.search_pixels;
-  if (!options_.reacquire_about_last_verified || !strayed) return false;
+  if (!strayed) return false;
   // The same rings about the verified pose; the next frame goes on from the further of the two.
   const int reached = reacquisition_ring_;
   reacquisition_ring_ = ring;
