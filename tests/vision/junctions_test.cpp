@@ -4,6 +4,8 @@
 #include "cfuse/vision/junctions.h"
 
 #include <catch2/catch.hpp>
+#include <cstdint>
+#include <vector>
 
 namespace cfuse {
 namespace {
@@ -104,6 +106,49 @@ TEST_CASE("junctions: the corners of a rectangle, strongest first", "[vision]") 
   // The strongest: sides 2 and 3 (contrasts 30 and 40) at (10, 60), arms of 100 and 50 px.
   CHECK((j[0].corner - Eigen::Vector2d(10, 60)).norm() < 1e-9);
   CHECK(j[0].strength == Approx(30 * 50));
+}
+
+// 200 x 120 grey image: a bright block over x = 20..180 from y = 60 down, except a dark column
+// over x in [gap_from, gap_from + gap) cutting its top edge.
+std::vector<std::uint8_t> Block(int gap_from, int gap) {
+  std::vector<std::uint8_t> pixels(200 * 120, 60);
+  for (int y = 60; y < 120; ++y) {
+    for (int x = 20; x <= 180; ++x) {
+      if (x < gap_from || x >= gap_from + gap) pixels[y * 200 + x] = 160;
+    }
+  }
+  return pixels;
+}
+
+TEST_CASE("junctions: an arm's end traced along the image's steps past where its segment broke",
+          "[vision]") {
+  // The block's top-left corner, its top edge's segment broken at x = 60.
+  Junction j;
+  j.corner = Eigen::Vector2d(20, 60);
+  j.direction[0] = Eigen::Vector2d(1, 0);
+  j.far[0] = Eigen::Vector2d(60, 60);
+  j.direction[1] = Eigen::Vector2d(0, 1);
+  j.far[1] = Eigen::Vector2d(20, 100);
+  {
+    const std::vector<std::uint8_t> pixels = Block(0, 0);
+    const EdgeOrientations steps(GrayView{pixels.data(), 200, 120, 200});
+    // On to the block's top-right corner, where the edge turns (the side's steps run across).
+    CHECK((TracedEnd(j, 0, steps, 12) - Eigen::Vector2d(180, 60)).norm() < 3);
+    // The side down from the corner ends at the image's border: its last row within the spread.
+    CHECK(TracedEnd(j, 1, steps, 12).y() > 115);
+    // A segment that ends near the corner already keeps its end.
+    Junction near = j;
+    near.far[0] = Eigen::Vector2d(178, 60);
+    CHECK((TracedEnd(near, 0, steps, 12) - near.far[0]).norm() < 1e-12);
+  }
+  {
+    // A 20 px gap in the edge stops the trace at its start with a 12 px gap allowed ...
+    const std::vector<std::uint8_t> pixels = Block(100, 20);
+    const EdgeOrientations steps(GrayView{pixels.data(), 200, 120, 200});
+    CHECK(std::abs(TracedEnd(j, 0, steps, 12).x() - 100) < 4);
+    // ... and is crossed with 30 px.
+    CHECK((TracedEnd(j, 0, steps, 30) - Eigen::Vector2d(180, 60)).norm() < 3);
+  }
 }
 
 }  // namespace

@@ -347,6 +347,19 @@ TrackerOptions ForCandidates(TrackerOptions options, bool joints) {
   return options;
 }
 
+// Whether `point` lies at the corner of a junction other than `j`: a segment ending there ends
+// where its edge meets another, at a vertex (the hinged box's lid along the box's top edge
+// carries the edge's steps on past it), not where texture broke it.
+bool AtCorner(const std::vector<Junction>& junctions, int j, const Eigen::Vector2d& point,
+              const JunctionOptions& options) {
+  for (size_t k = 0; k < junctions.size(); ++k) {
+    if (static_cast<int>(k) != j && (junctions[k].corner - point).norm() <= options.max_gap) {
+      return true;
+    }
+  }
+  return false;
+}
+
 // Steps 2 and 3: every junction against every vertex of every shape, both ways round, each
 // P3P pose ranked; the poses that beat the best kRanked so far, best first.
 std::vector<Scored> RankedPoses(const std::vector<Shape>& shapes,
@@ -380,10 +393,22 @@ std::vector<Scored> RankedPoses(const std::vector<Shape>& shapes,
     }
   }
   for (int j = 0; j < static_cast<int>(junctions.size()); ++j) {
-    const std::vector<Eigen::Vector2d> ends0 =
-        ArmEnds(junctions, j, 0, options.junctions, options.max_arm_ends);
-    const std::vector<Eigen::Vector2d> ends1 =
-        ArmEnds(junctions, j, 1, options.junctions, options.max_arm_ends);
+    std::vector<Eigen::Vector2d> ends[2];
+    for (int arm = 0; arm < 2; ++arm) {
+      ends[arm] = ArmEnds(junctions, j, arm, options.junctions, options.max_arm_ends);
+      if (!(options.arm_trace_gap > 0) || AtCorner(junctions, j, ends[arm][0], options.junctions)) {
+        continue;
+      }
+      // A segment that broke short of its edge's far corner: its end moved on to where the
+      // edge's steps end, unless a junction's corner there is an end already.
+      const Eigen::Vector2d traced = TracedEnd(junctions[j], arm, steps, options.arm_trace_gap);
+      if (std::none_of(ends[arm].begin(), ends[arm].end(),
+                       [&](const Eigen::Vector2d& e) { return (e - traced).norm() < 3; })) {
+        ends[arm][0] = traced;
+      }
+    }
+    const std::vector<Eigen::Vector2d>& ends0 = ends[0];
+    const std::vector<Eigen::Vector2d>& ends1 = ends[1];
     for (const Eigen::Vector2d& end1 : ends1) {
       for (const Eigen::Vector2d& end0 : ends0) {
         const std::array<Eigen::Vector2d, 3> image_points = {end0, junctions[j].corner, end1};

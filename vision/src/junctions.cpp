@@ -176,4 +176,23 @@ std::vector<Eigen::Vector2d> ArmEnds(const std::vector<Junction>& junctions, int
   return out;
 }
 
+Eigen::Vector2d TracedEnd(const Junction& junction, int arm, const EdgeOrientations& steps,
+                          double max_gap) {
+  const Eigen::Vector2d& c = junction.corner;
+  const Eigen::Vector2d& d = junction.direction[arm];
+  const auto bin = static_cast<std::uint8_t>(1u << EdgeOrientations::Bin({-d.y(), d.x()}));
+  const double from = (junction.far[arm] - c).norm();
+  double last = from;  // px from the corner
+  for (double s = from + 1;; s += 1) {
+    const Eigen::Vector2d p = c + s * d;
+    if (p.x() < 0 || p.y() < 0 || p.x() > steps.width() - 1 || p.y() > steps.height() - 1) break;
+    if (steps.Has(p.x(), p.y(), bin)) {
+      last = s;
+    } else if (s - last > max_gap) {
+      break;
+    }
+  }
+  return last > from + 4 ? Eigen::Vector2d(c + last * d) : junction.far[arm];
+}
+
 }  // namespace cfuse

@@ -54,6 +54,10 @@ struct DetectorOptions {
   // Where an arm may end: its segment's far end and at most this many more, the corners of
   // junctions further along its line (ArmEnds).
   int max_arm_ends = 3;
+  // ... the segment's far end moved on along the image's steps of the arm's orientation, across
+  // gaps of at most this many px (TracedEnd), unless it ends at another junction's corner; 0:
+  // where the segment ends.
+  double arm_trace_gap = 12;
   long max_poses = 400000;   // P3P poses scored at most
   int max_candidates = 12;   // the best poses, spread apart, tracked and verified
   int max_results = 1;       // objects reported

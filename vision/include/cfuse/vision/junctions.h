@@ -14,6 +14,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "cfuse/vision/edge_orientations.h"
 #include "cfuse/vision/segments.h"
 
 namespace cfuse {
@@ -46,5 +47,14 @@ std::vector<Junction> FindJunctions(const std::vector<ImageSegment>& segments,
 // `max_ends` points, the segment's far end first, then the nearest corners.
 std::vector<Eigen::Vector2d> ArmEnds(const std::vector<Junction>& junctions, int j, int arm,
                                      const JunctionOptions& options = {}, int max_ends = 3);
+
+// Where arm `arm` of `junction` ends along the image's steps: from its segment's far end on
+// along the arm's line, 1 px at a time, to the last point with a step of the arm's own
+// orientation bin (EdgeOrientations, within its spread) no more than `max_gap` px past the one
+// before. Its segment's far end when the steps go on for 4 px or less. A segment broken by
+// texture, a highlight or a dark patch on an edge ends well short of the edge's far corner, while
+// the edge's steps go on: P3P from a junction needs that corner, not where a segment broke.
+Eigen::Vector2d TracedEnd(const Junction& junction, int arm, const EdgeOrientations& steps,
+                          double max_gap);
 
 }  // namespace cfuse
