@@ -10,6 +10,7 @@
 // further off; "not found": refused, with the reason.
 //
 //   build/bench/detect_sweep --trials 200 [--models box,castle,hinged-box] [--verbose]
+//                            [--seed 1] [--arm-trace-gap 12]
 #include <fmt/format.h>
 
 #include <CLI/CLI.hpp>
@@ -142,11 +143,15 @@ int Run(int argc, char** argv) {
   app.add_option("--segments", detector_name, "the segment detector: lowe, canny, lsd or hough");
   int hough_votes = 30, hough_gap = 12;
   double junction_gap = 6;
+  double arm_trace_gap = DetectorOptions().arm_trace_gap;
   bool oracle = false;
   app.add_flag("--oracle", oracle,
                "also track each render from its true pose: the share the tracker's verification "
                "passes, detection's ceiling");
   app.add_option("--junction-gap", junction_gap, "px from a crossing to the segments' ends");
+  app.add_option(
+      "--arm-trace-gap", arm_trace_gap,
+      "px of an arm's line without a step where its traced end stops (0: the segment's end)");
   app.add_option("--hough-votes", hough_votes);
   app.add_option("--hough-gap", hough_gap, "px bridged along a line");
   bool candidates = false;
@@ -218,6 +223,7 @@ int Run(int argc, char** argv) {
       const auto start = std::chrono::steady_clock::now();
       DetectorOptions options;
       options.junctions.max_gap = junction_gap;
+      options.arm_trace_gap = arm_trace_gap;
       if (oracle) {
         TrackerOptions quick;
         quick.settle_places = quick.settle_depths = quick.settle_joint_values = 0;
