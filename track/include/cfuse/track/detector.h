@@ -5,7 +5,9 @@
 //  1. Features. Segments (Lowe's detector, segments.h), and the junctions where two of them end
 //     at a common corner, no segment going on through it (junctions.h): a junction and the far
 //     ends of its two arms (or the corners of junctions further along them) are three image
-//     points.
+//     points. An arm whose segment broke on texture or a highlight is traced on along the image's
+//     steps of its orientation to where its edge ends (TracedEnd, `arm_trace_gap`), unless the
+//     segment ends at another junction's corner, a vertex.
 //  2. Hypotheses. Each junction is matched to each vertex of each rigid component where two of
 //     its edges meet, the arms to those edges (both ways round): Lambda Twist P3P (p3p.h) on the
 //     vertex and its two neighbours gives up to four poses of that component, and the model's
