@@ -407,10 +407,8 @@ std::vector<Scored> RankedPoses(const std::vector<Shape>& shapes,
         ends[arm][0] = traced;
       }
     }
-    const std::vector<Eigen::Vector2d>& ends0 = ends[0];
-    const std::vector<Eigen::Vector2d>& ends1 = ends[1];
-    for (const Eigen::Vector2d& end1 : ends1) {
-      for (const Eigen::Vector2d& end0 : ends0) {
+    for (const Eigen::Vector2d& end1 : ends[1]) {
+      for (const Eigen::Vector2d& end0 : ends[0]) {
         const std::array<Eigen::Vector2d, 3> image_points = {end0, junctions[j].corner, end1};
         for (const Seed& seed : seeds) {
           const Shape& s = shapes[seed.shape];

@@ -208,9 +208,9 @@ TrackedFrame Tracker::Track(const GrayView& image) {
   // Lost for a frame or more: places in rings about the last pose carried (and about the last
   // verified one when the carried estimate has strayed from it), a ring further out each frame
   // (round again once the rings leave the image), the best of the first ring that finds the
-  // object kept. (The same search at the first frame, keeping the estimate
-  // that explains the most of the outline, was tried against starts far off: it found more
-  // frames but verified more wrong ones, and moved castel's track by 12 mm.)
+  // object kept. (The same search at the first frame, keeping the estimate that explains the
+  // most of the outline, was tried against starts far off: it found more frames but verified
+  // more wrong ones, and moved castel's track by 12 mm.)
   if (!out.verified && lost > 0 && ReacquireLost(image, &out)) out.reacquired = true;
   if (out.verified && (last_verified_ < 0 || lost > 0 || out.reacquired)) Settle(image, &out);
   // A pose the outline supports better but its matches leave undetermined (an occluder hides
