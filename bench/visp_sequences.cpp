@@ -5,6 +5,7 @@
 //
 //   visp_sequences [--sequences castle-simu,castel] [--steps 1,2,3] [--repeat 3]
 //                  [--perturb N] [--seed 1] [--csv DIR] [--support] [--visp-scanline]
+//                  [--depth [--depth-stride PX] [--depth-points N] [--depth-effective N]]
 //
 // ViSP runs at its default visibility, without the scan-line test: on Castle-simu and castel
 // the test makes it four times slower and no more accurate. --visp-scanline turns it on. The
@@ -23,6 +24,10 @@
 // (cfuse) or returned (ViSP), frames verified more than 10 mm from the reference ("wrong"),
 // the median and worst position error of those frames, and the time per frame (the median over
 // `repeat` runs of each tracker's mean), with cfuse's split by stage.
+//
+// With --depth, on a sequence with depth frames (castel): cfuse with the range sensor's points
+// fused too (cfuse/track/depth_evidence.h), and ViSP with its edges and dense depth, in two more
+// rows; the perturbed starts are then tracked with depth.
 //
 // With --perturb N: N trials per sequence, each a fresh tracker started at a random frame from
 // the reference pose moved by 10 to 100 % of --perturb-mm (60) and turned by 10 to 100 % of
@@ -54,6 +59,7 @@
 #include "cfuse/track/detector.h"
 #include "cfuse/track/tracker.h"
 #include "cfuse/track/verification.h"
+#include "cfuse/vision/depth_file.h"
 
 namespace {
 
@@ -186,35 +192,10 @@ std::vector<cv::Mat> Frames(const Sequence& s) {
   return out;
 }
 
-// castel's depth frames (a Creative SR300): little-endian uint32 height and width, then 16-bit
-// depths in units of 0.000124986647 m, deprojected through the depth camera's intrinsics and its
-// distortion as ViSP's example mbtGenericTrackingDepth.cpp does (RealSense's Brown model).
-bench::DepthCloud ReadCastelDepth(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  std::uint32_t height = 0, width = 0;
-  in.read(reinterpret_cast<char*>(&height), 4);
-  in.read(reinterpret_cast<char*>(&width), 4);
-  std::vector<std::uint16_t> raw(static_cast<size_t>(width) * height);
-  in.read(reinterpret_cast<char*>(raw.data()), static_cast<std::streamsize>(raw.size() * 2));
-  if (!in || width == 0) throw std::runtime_error("cannot read " + path);
-  bench::DepthCloud cloud;
-  cloud.width = static_cast<int>(width);
-  cloud.height = static_cast<int>(height);
-  cloud.points.resize(raw.size());
-  const float ppx = 311.484558f, ppy = 246.283234f, fx = 476.053619f, fy = 476.053497f;
-  const float k[5] = {0.165056542f, -0.0508309528f, 0.00435937941f, 0.00541406544f, 0.250085592f};
-  for (std::uint32_t i = 0; i < height; ++i) {
-    for (std::uint32_t j = 0; j < width; ++j) {
-      const float depth = raw[i * width + j] * 0.000124986647f;
-      float x = (j - ppx) / fx, y = (i - ppy) / fy;
-      const float r2 = x * x + y * y;
-      const float f = 1 + k[0] * r2 + k[1] * r2 * r2 + k[4] * r2 * r2 * r2;
-      const float ux = x * f + 2 * k[2] * x * y + k[3] * (r2 + 2 * x * x);
-      const float uy = y * f + 2 * k[3] * x * y + k[2] * (r2 + 2 * y * y);
-      cloud.points[i * width + j] = Eigen::Vector3f(depth * ux, depth * uy, depth);
-    }
-  }
-  return cloud;
+// castel's depth frames (cfuse/vision/depth_file.h), in the depth camera's frame (ViSP's input)
+// or moved into the grey camera's (cfuse's).
+DepthFrame ReadCastelDepth(const std::string& path, const Rigid3d& grey_from_depth) {
+  return ReadRawDepth(path, CastelDepthIntrinsics(), kCastelMetresPerUnit, grey_from_depth);
 }
 
 Values Posed(const ConstraintGraph& graph, const Rigid3d& camera_from_object) {
@@ -258,6 +239,7 @@ std::string Num(double x, int digits = 2) {
 struct Run {
   std::vector<Verification> verification;
   std::vector<double> position_sigma;
+  std::vector<int> depth_points;  // fused (cfuse with depth)
   std::vector<bool> accepted;
   std::vector<Rigid3d> poses;
   std::vector<double> ms;
@@ -265,19 +247,21 @@ struct Run {
 };
 
 Run TrackCfuse(const ConstraintGraph& graph, const Sequence& s, const std::vector<cv::Mat>& frames,
-               const std::vector<int>& picked, const Rigid3d& start,
-               const AutoTrackerOptions& base,
-               EdgeEvidence evidence = EdgeEvidence::kNormalSearch) {
+               const std::vector<int>& picked, const Rigid3d& start, const AutoTrackerOptions& base,
+               EdgeEvidence evidence = EdgeEvidence::kNormalSearch,
+               const std::vector<DepthFrame>* depth = nullptr) {
   Run run;
   AutoTrackerOptions options = base;
   options.tracker.evidence = evidence;
   AutoTracker tracker(graph, s.camera, Posed(graph, start), options);
   for (int k : picked) {
     const cv::Mat& m = frames[k];
-    const TrackedFrame f = tracker.Track({m.data, m.cols, m.rows, static_cast<int>(m.step)});
+    const GrayView view{m.data, m.cols, m.rows, static_cast<int>(m.step)};
+    const TrackedFrame f = depth ? tracker.Track(view, (*depth)[k]) : tracker.Track(view);
     run.accepted.push_back(f.verified);
     run.verification.push_back(f.verification);
     run.position_sigma.push_back(f.position_sigma);
+    run.depth_points.push_back(f.depth_points);
     run.poses.push_back(f.estimate.mean.poses[0] * graph.nominal.poses[0].Inverse());
     run.ms.push_back(f.times.Total());
     run.mean.segments += f.times.segments / picked.size();
@@ -296,6 +280,26 @@ Run TrackVisp(const Sequence& s, const std::vector<cv::Mat>& frames, const std::
   Run run;
   for (const bench::PeerFrame& f :
        bench::TrackWithVisp(pixels, 640, 480, s.camera, s.cao, start, s.visp)) {
+    run.accepted.push_back(f.ok);
+    run.poses.push_back(f.camera_from_object);
+    run.ms.push_back(f.ms);
+  }
+  return run;
+}
+
+Run TrackVispDepth(const Sequence& s, const std::vector<cv::Mat>& frames,
+                   const std::vector<bench::DepthCloud>& clouds, const std::vector<int>& picked,
+                   const Rigid3d& start) {
+  std::vector<const std::uint8_t*> pixels;
+  std::vector<bench::DepthCloud> picked_clouds;
+  for (int k : picked) {
+    pixels.push_back(frames[k].data);
+    picked_clouds.push_back(clouds[k]);
+  }
+  Run run;
+  for (const bench::PeerFrame& f :
+       bench::TrackWithVispDepth(pixels, 640, 480, s.camera, s.cao, start, s.visp, picked_clouds,
+                                 s.depth_config, s.depth_from_color)) {
     run.accepted.push_back(f.ok);
     run.poses.push_back(f.camera_from_object);
     run.ms.push_back(f.ms);
@@ -457,6 +461,15 @@ int main(int argc, char** argv) {
                  "cfuse runs per cell, each from the start moved by up to 1 mm and 0.3 degrees "
                  "(the first unmoved): a track's spread over nearly equal starts");
   app.add_flag("--segments", segments, "cfuse with segments for edge evidence too");
+  bool use_depth = false;
+  app.add_flag("--depth", use_depth,
+               "cfuse and ViSP with the depth frames too, where a sequence has them (castel)");
+  double depth_effective = 0;
+  app.add_option("--depth-effective", depth_effective,
+                 "the independent points cfuse's depth samples weigh as");
+  int depth_stride = 0, depth_points = 0;
+  app.add_option("--depth-points", depth_points, "cfuse's depth samples fused, at most");
+  app.add_option("--depth-stride", depth_stride, "px between cfuse's depth samples");
   bool detect = false, verbose = false;
   app.add_flag("--detect", detect, "detection with no pose given on every frame, not tracking");
   app.add_flag("--verbose", verbose, "a line per frame (--detect)");
@@ -492,6 +505,9 @@ int main(int argc, char** argv) {
   if (!detect_after_loss) options.redetect_after = std::numeric_limits<int>::max();
   try {
     bench::DisableSafeguards(without, &options.tracker);
+    if (depth_stride > 0) options.tracker.depth.stride = depth_stride;
+    if (depth_effective > 0) options.tracker.depth.effective_points = depth_effective;
+    if (depth_points > 0) options.tracker.depth.max_points = depth_points;
   } catch (const std::invalid_argument& e) {
     fmt::print(stderr, "visp_sequences: {}\n", e.what());
     return 2;
@@ -524,13 +540,19 @@ int main(int argc, char** argv) {
     std::vector<Rigid3d> reference = s.truth;
     std::vector<int> all(s.count);
     for (int k = 0; k < s.count; ++k) all[k] = k;
-    if (reference.empty() && !s.depth_format.empty()) {
-      std::vector<bench::DepthCloud> clouds;
-      std::vector<const std::uint8_t*> pixels;
+    std::vector<bench::DepthCloud> clouds;
+    std::vector<DepthFrame> depth_frames;  // the same in the grey camera's frame, for cfuse
+    if (!s.depth_format.empty()) {
       for (int k = 0; k < s.count; ++k) {
-        clouds.push_back(ReadCastelDepth(fmt::format(fmt::runtime(s.depth_format), s.first + k)));
-        pixels.push_back(frames[k].data);
+        const std::string file = fmt::format(fmt::runtime(s.depth_format), s.first + k);
+        const DepthFrame in_depth_camera = ReadCastelDepth(file, Rigid3d());
+        clouds.push_back({in_depth_camera.width, in_depth_camera.height, in_depth_camera.points});
+        depth_frames.push_back(ReadCastelDepth(file, s.depth_from_color.Inverse()));
       }
+    }
+    if (reference.empty() && !s.depth_format.empty()) {
+      std::vector<const std::uint8_t*> pixels;
+      for (int k = 0; k < s.count; ++k) pixels.push_back(frames[k].data);
       for (const bench::PeerFrame& f : bench::TrackWithVispDepth(
                pixels, 640, 480, s.camera, s.cao, s.start, with_scanline.visp, clouds,
                s.depth_config, s.depth_from_color)) {
@@ -569,9 +591,15 @@ int main(int argc, char** argv) {
     for (int k : steps) {
       std::vector<int> picked;
       for (int i = 0; i < s.count; i += k) picked.push_back(i);
-      for (const std::string who : {"cfuse", "cfuse (segments)", "ViSP"}) {
+      for (const std::string who :
+           {"cfuse", "cfuse (segments)", "cfuse + depth", "ViSP", "ViSP + depth"}) {
         if (who == "cfuse (segments)" && !segments) continue;
-        const bool ours = who != "ViSP";
+        const bool with_depth = who == "cfuse + depth" || who == "ViSP + depth";
+        if (with_depth && (!use_depth || clouds.empty())) continue;
+        const bool ours = who.starts_with("cfuse");
+        const EdgeEvidence evidence =
+            who == "cfuse (segments)" ? EdgeEvidence::kSegments : EdgeEvidence::kNormalSearch;
+        const std::vector<DepthFrame>* depth = with_depth ? &depth_frames : nullptr;
         std::vector<double> means, later;  // ms a frame, and after the first frame
         Run run;
         std::vector<Run> runs;  // the jittered starts' (cfuse)
@@ -584,15 +612,12 @@ int main(int argc, char** argv) {
                                                                    turn.normalized())) *
                                   s.start.rotation,
                               s.start.translation + 0.001 * move);
-          runs.push_back(TrackCfuse(graph, s, frames, picked, start, options,
-                                    who == "cfuse" ? EdgeEvidence::kNormalSearch
-                                                   : EdgeEvidence::kSegments));
+          runs.push_back(TrackCfuse(graph, s, frames, picked, start, options, evidence, depth));
         }
         for (int r = 0; r < repeat; ++r) {
-          run = !ours ? TrackVisp(s, frames, picked, s.start)
-                      : TrackCfuse(graph, s, frames, picked, s.start, options,
-                                   who == "cfuse" ? EdgeEvidence::kNormalSearch
-                                                  : EdgeEvidence::kSegments);
+          run = ours ? TrackCfuse(graph, s, frames, picked, s.start, options, evidence, depth)
+                : with_depth ? TrackVispDepth(s, frames, clouds, picked, s.start)
+                             : TrackVisp(s, frames, picked, s.start);
           means.push_back(Mean(run.ms));
           later.push_back(Mean(std::vector<double>(run.ms.begin() + 1, run.ms.end())));
         }
@@ -697,7 +722,9 @@ int main(int argc, char** argv) {
         const Rigid3d off(turn * ref.rotation, ref.translation + 0.001 * mm * direction());
         std::vector<int> picked;
         for (int i = start; i < start + kLength; ++i) picked.push_back(i);
-              const Run run = TrackCfuse(graph, s, frames, picked, off, options);
+        const Run run =
+            TrackCfuse(graph, s, frames, picked, off, options, EdgeEvidence::kNormalSearch,
+                       use_depth && !depth_frames.empty() ? &depth_frames : nullptr);
         // ViSP from the same start on the same frames: where edges alone take a tracker that
         // has no verification.
         const Run peer = TrackVisp(s, frames, picked, off);
@@ -728,16 +755,17 @@ int main(int argc, char** argv) {
                 "perturbed {} trial {} frame {} (its {}th): verified {:.1f} mm / {:.1f} px off "
                 "(start {:.0f} mm {:.0f} deg; sigma {:.1f} mm agreement {:.2f} share {:.2f} "
                 "chance {:.2f} dominant {:.2f} "
-                "least {:.2f} distance {:.2f} n {}) pose {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} "
+                "least {:.2f} distance {:.2f} n {}; depth fused {}, agreeing {:.2f}) pose {:.6f} "
+                "{:.6f} {:.6f} {:.7f} {:.7f} "
                 "{:.7f} {:.7f}; started at {:.6f} {:.6f} {:.6f} {:.7f} {:.7f} {:.7f} {:.7f}\n",
                 name, trial, picked[i], i + 1, err, px, mm, deg, 1000 * run.position_sigma[i],
                 v.agreement, v.share, v.chance, v.dominant_share, v.least_component,
-                v.mean_distance, v.samples, run.poses[i].translation.x(),
-                run.poses[i].translation.y(), run.poses[i].translation.z(),
-                run.poses[i].rotation.w(), run.poses[i].rotation.x(), run.poses[i].rotation.y(),
-                run.poses[i].rotation.z(), off.translation.x(), off.translation.y(),
-                off.translation.z(), off.rotation.w(), off.rotation.x(), off.rotation.y(),
-                off.rotation.z());
+                v.mean_distance, v.samples, run.depth_points[i], v.depth_share,
+                run.poses[i].translation.x(), run.poses[i].translation.y(),
+                run.poses[i].translation.z(), run.poses[i].rotation.w(), run.poses[i].rotation.x(),
+                run.poses[i].rotation.y(), run.poses[i].rotation.z(), off.translation.x(),
+                off.translation.y(), off.translation.z(), off.rotation.w(), off.rotation.x(),
+                off.rotation.y(), off.rotation.z());
           }
         }
       }

@@ -365,6 +365,52 @@ constexpr const char* kPoseForm =
     "a ViSP pose is six numbers tx ty tz tux tuy tuz (metres, then the rotation vector in "
     "radians)";
 
+constexpr const char* kMatrixForm =
+    "a ViSP homogeneous matrix is sixteen numbers, four rows of four: the rotation and the "
+    "translation (metres), then 0 0 0 1";
+
+// The white-space separated numbers of a pose file, with each one's offset, and the offset just
+// after the last; a token that is not a finite number is refused at its place, `form` saying
+// what the file should hold.
+struct PoseNumbers {
+  std::vector<double> values;
+  std::vector<size_t> offsets;
+  size_t end = 0;
+};
+
+PoseNumbers ReadPoseNumbers(std::string_view text, const std::string& display_name,
+                            const char* form) {
+  PoseNumbers out;
+  for (size_t i = 0; i < text.size();) {
+    if (IsPoseSpace(text[i])) {
+      ++i;
+      continue;
+    }
+    const size_t from = i;
+    while (i < text.size() && !IsPoseSpace(text[i])) ++i;
+    const std::string_view token = text.substr(from, i - from);
+    double value = 0;
+    switch (ParseNumber(token, &value)) {
+      case NumberKind::kNumber:
+        break;
+      case NumberKind::kNotANumber:
+        throw InputError(LocationOfOffset(display_name, text, from),
+                         fmt::format("expected a number, found {}: {}", Quoted(token), form));
+      case NumberKind::kNotFinite:
+        throw InputError(LocationOfOffset(display_name, text, from),
+                         fmt::format("{} is not a finite number: {}", Quoted(token), form));
+    }
+    out.values.push_back(value);
+    out.offsets.push_back(from);
+    out.end = i;
+  }
+  if (out.values.empty()) {
+    throw InputError(LocationOfOffset(display_name, text, 0),
+                     fmt::format("the file is empty: {}", form));
+  }
+  return out;
+}
+
 }  // namespace
 
 bool IsVispCameraFile(const std::string& path) {
@@ -428,42 +474,15 @@ Rigid3d ReadVispPoseFromString(std::string_view text, const std::string& display
                                  kMaxVispPoseFileBytes >> 20));
   }
   RequireText(display_name, text, "ViSP pose file");
-  double v[6] = {0, 0, 0, 0, 0, 0};
-  int count = 0;
-  size_t fourth = 0, seventh = 0, end_of_last = 0;
-  for (size_t i = 0; i < text.size();) {
-    if (IsPoseSpace(text[i])) {
-      ++i;
-      continue;
-    }
-    const size_t from = i;
-    while (i < text.size() && !IsPoseSpace(text[i])) ++i;
-    const std::string_view token = text.substr(from, i - from);
-    double value = 0;
-    switch (ParseNumber(token, &value)) {
-      case NumberKind::kNumber:
-        break;
-      case NumberKind::kNotANumber:
-        throw InputError(LocationOfOffset(display_name, text, from),
-                         fmt::format("expected a number, found {}: {}", Quoted(token), kPoseForm));
-      case NumberKind::kNotFinite:
-        throw InputError(LocationOfOffset(display_name, text, from),
-                         fmt::format("{} is not a finite number: {}", Quoted(token), kPoseForm));
-    }
-    if (count < 6) v[count] = value;
-    if (count == 3) fourth = from;
-    if (count == 6) seventh = from;
-    ++count;
-    end_of_last = i;
-  }
-  if (count == 0) {
-    throw InputError(LocationOfOffset(display_name, text, 0),
-                     fmt::format("the file is empty: {}", kPoseForm));
-  }
+  const PoseNumbers numbers = ReadPoseNumbers(text, display_name, kPoseForm);
+  const size_t count = numbers.values.size();
   if (count != 6) {
-    throw InputError(LocationOfOffset(display_name, text, count < 6 ? end_of_last : seventh),
-                     fmt::format("{}, found {}", kPoseForm, count));
+    throw InputError(
+        LocationOfOffset(display_name, text, count < 6 ? numbers.end : numbers.offsets[6]),
+        fmt::format("{}, found {}", kPoseForm, count));
   }
+  const std::vector<double>& v = numbers.values;
+  const size_t fourth = numbers.offsets[3];
   const Eigen::Vector3d t(v[0], v[1], v[2]), theta_u(v[3], v[4], v[5]);
   // ViSP writes angles in [0, π]; beyond 2π the numbers are not radians (degrees?), and a
   // rotation vector whose norm overflows has no rotation (found by fuzz/poses_fuzz.cpp).
@@ -475,6 +494,46 @@ Rigid3d ReadVispPoseFromString(std::string_view text, const std::string& display
                                  v[3], v[4], v[5], theta_u.norm()));
   }
   return Rigid3d(ExpSO3<double>(theta_u), t);
+}
+
+Rigid3d ReadVispMatrixPose(const std::string& path) {
+  return ReadVispMatrixPoseFromString(
+      ReadImportedFile(path, SourceLocation(), "ViSP matrix", kMaxVispPoseFileBytes), path);
+}
+
+Rigid3d ReadVispMatrixPoseFromString(std::string_view text, const std::string& display_name) {
+  if (text.size() > kMaxVispPoseFileBytes) {
+    throw InputError(SourceLocation(display_name),
+                     fmt::format("file is larger than the {} MiB limit for ViSP pose files",
+                                 kMaxVispPoseFileBytes >> 20));
+  }
+  RequireText(display_name, text, "ViSP matrix file");
+  const PoseNumbers numbers = ReadPoseNumbers(text, display_name, kMatrixForm);
+  const size_t count = numbers.values.size();
+  if (count != 16) {
+    throw InputError(
+        LocationOfOffset(display_name, text, count < 16 ? numbers.end : numbers.offsets[16]),
+        fmt::format("{}, found {} numbers", kMatrixForm, count));
+  }
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = numbers.values[4 * r + c];
+  }
+  if ((m.row(3) - Eigen::RowVector4d(0, 0, 0, 1)).cwiseAbs().maxCoeff() > 1e-9) {
+    throw InputError(LocationOfOffset(display_name, text, numbers.offsets[12]),
+                     fmt::format("the last row is {:g} {:g} {:g} {:g}: {}", m(3, 0), m(3, 1),
+                                 m(3, 2), m(3, 3), kMatrixForm));
+  }
+  // Written to ten digits or so: a rotation to about 1e-6, never a scaled or sheared one.
+  const Eigen::Matrix3d R = m.topLeftCorner<3, 3>();
+  const double off = (R.transpose() * R - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
+  if (!(off <= 1e-4) || R.determinant() <= 0) {
+    throw InputError(LocationOfOffset(display_name, text, numbers.offsets[0]),
+                     fmt::format("the upper-left 3 x 3 block is no rotation (RᵀR departs from "
+                                 "the identity by {:.2g}, det R = {:.4g}): {}",
+                                 off, R.determinant(), kMatrixForm));
+  }
+  return Rigid3d(Eigen::Quaterniond(R).normalized(), m.topRightCorner<3, 1>());
 }
 
 }  // namespace cfuse

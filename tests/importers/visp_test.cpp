@@ -390,6 +390,47 @@ TEST_CASE("visp: every malformed .pos is refused at its line and column", "[impo
                     dir.path.string() + ": error: is a directory, not a ViSP pose file");
 }
 
+TEST_CASE("visp: homogeneous matrices, the pose read as written", "[importers][visp]") {
+  // A quarter turn about z and a translation, four rows of four.
+  const Rigid3d pose =
+      ReadVispMatrixPoseFromString("0 -1 0 0.1\n1 0 0 -0.2\n0 0 1 0.5\n0 0 0 1\n", "m.txt");
+  CHECK((pose.translation - Eigen::Vector3d(0.1, -0.2, 0.5)).norm() < 1e-15);
+  CHECK((pose * Eigen::Vector3d(1, 0, 0) - Eigen::Vector3d(0.1, 0.8, 0.5)).norm() < 1e-12);
+  const std::string path = VispData("mbt-depth/castel/depth_M_color.txt");
+  if (path.empty()) return;
+  const Rigid3d depth_from_color = ReadVispMatrixPose(path);
+  CHECK((depth_from_color.translation -
+         Eigen::Vector3d(-0.02470519207, 0.0006583171198, -0.003773850389))
+            .norm() < 1e-12);
+  CHECK(depth_from_color.RotationMatrix()(0, 1) == Approx(-0.003901827615).margin(1e-8));
+}
+
+TEST_CASE("visp: every malformed matrix is refused at its line and column", "[importers][visp]") {
+  const testing::BadCase cases[] = {
+      {"", 1, 1, "the file is empty: a ViSP homogeneous matrix is sixteen numbers"},
+      {"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0\n", 4, 6,
+       "a ViSP homogeneous matrix is sixteen numbers, four rows of four: the rotation and the "
+       "translation (metres), then 0 0 0 1, found 15 numbers"},
+      {"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1 7\n", 4, 9,
+       "a ViSP homogeneous matrix is sixteen numbers, four rows of four: the rotation and the "
+       "translation (metres), then 0 0 0 1, found 17 numbers"},
+      {"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 x 1\n", 4, 5, "expected a number, found 'x'"},
+      {"1 0 0 0\n0 1 0 0\n0 0 1 nan\n0 0 0 1\n", 3, 7, "'nan' is not a finite number"},
+      {"1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 1 1\n", 4, 1, "the last row is 0 0 1 1"},
+      {"2 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n", 1, 1,
+       "the upper-left 3 x 3 block is no rotation (RᵀR departs from the identity by 3"},
+      {"-1 0 0 0\n0 1 0 0\n0 0 1 0\n0 0 0 1\n", 1, 1,
+       "the upper-left 3 x 3 block is no rotation (RᵀR departs from the identity by 0, det R = "
+       "-1)"},
+  };
+  testing::ExpectRefused(
+      std::begin(cases), std::end(cases),
+      [](const char* text, const char* name) { return ReadVispMatrixPoseFromString(text, name); });
+  const TempDir dir("matrices");
+  const std::string missing = (dir.path / "missing.txt").string();
+  CHECK_THROWS_WITH(ReadVispMatrixPose(missing), missing + ": error: cannot open: no such file");
+}
+
 // ViSP's testGenericTracker.cpp (modules/tracker/mbt/test) tracks Castle-simu's chateau with a
 // cube added: tracker.loadModel("Models/cube.cao", false, T) with
 //   T = [-1 0 0 -0.2; 0 0 1 0.12; 0 1 0 -0.15; 0 0 0 1],

@@ -9,6 +9,7 @@
 #include "cfuse/kernel/measurements/image_point.h"
 #include "cfuse/kernel/measurements/image_segment.h"
 #include "cfuse/kernel/measurements/point3.h"
+#include "cfuse/kernel/measurements/point_on_plane.h"
 #include "kernel/jacobian_checker.h"
 
 namespace cfuse {
@@ -106,6 +107,10 @@ TEST_CASE("measurements: every residual's Jacobian matches central differences",
   testing::CheckJacobian(s.blocks, Point3Residual(local, Eigen::Vector3d(0.3, 0.2, 1.9)), {0},
                          s.values);
   testing::CheckJacobian(s.blocks, Point3Residual(Eigen::Vector3d(0.3, 0.2, 1.9)), {1}, s.values);
+  testing::CheckJacobian(
+      s.blocks,
+      PointOnPlaneResidual(Eigen::Vector3d(0.2, -0.4, 0.9), 0.07, Eigen::Vector3d(0.3, 0.2, 1.9)),
+      {0}, s.values);
   for (int coefficients : {0, 5, 12}) {
     const Camera camera = TestCamera(coefficients);
     testing::CheckJacobian(s.blocks, ImagePointResidual(camera, local, Eigen::Vector2d(300, 200)),
@@ -133,6 +138,28 @@ TEST_CASE("measurements: every residual's Jacobian matches central differences",
                          ImageSegmentResidual(ortho, local, other, Eigen::Vector2d(280, 190),
                                               Eigen::Vector2d(350, 230)),
                          {0}, s.values);
+}
+
+TEST_CASE("measurements: a 3D point on a plane measures its signed distance along the normal",
+          "[kernel]") {
+  // The component's plane z = 0.1 (normal +z) with the component turned 90 degrees about x and
+  // moved to (0, 0, 2): in the world the plane is y = -0.1, its normal -y.
+  std::vector<Block> blocks = {{BlockKind::kPose, 0, 0, "box"}};
+  Values values;
+  values.poses = {Rigid3d(Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitX())),
+                          Eigen::Vector3d(0, 0, 2))};
+  const std::vector<int> slot = {0};
+  Eigen::VectorXd r;
+  // On the plane anywhere across it, then 5 mm off it on either side; a normal given unscaled.
+  for (const auto& [measured, expected] : {std::pair{Eigen::Vector3d(0.3, -0.1, 2.4), 0.0},
+                                           {Eigen::Vector3d(-1, -0.1, 1.5), 0.0},
+                                           {Eigen::Vector3d(0, -0.105, 2), 0.005},
+                                           {Eigen::Vector3d(0.2, -0.095, 2.1), -0.005}}) {
+    EvaluateResidual(PointOnPlaneResidual(Eigen::Vector3d(0, 0, 3), 0.1, measured), blocks, slot,
+                     values, &r, nullptr);
+    REQUIRE(r.size() == 1);
+    CHECK(r[0] == Approx(expected).margin(1e-12));
+  }
 }
 
 TEST_CASE("measurements: an image segment measures the distance of its ends from the edge's line",

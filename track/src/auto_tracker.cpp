@@ -14,7 +14,12 @@ void AutoTracker::Skip() {
   if (tracker_) tracker_->Skip();
 }
 
-bool AutoTracker::Detect(const GrayView& image, TrackedFrame* out) {
+TrackedFrame AutoTracker::TrackWith(Tracker& tracker, const GrayView& image,
+                                    const DepthFrame* depth) {
+  return depth ? tracker.Track(image, *depth) : tracker.Track(image);
+}
+
+bool AutoTracker::Detect(const GrayView& image, const DepthFrame* depth, TrackedFrame* out) {
   const auto start = std::chrono::steady_clock::now();
   ++detections_;
   const Detection d = cfuse::Detect(graph_, camera_, image, options_.detector);
@@ -29,7 +34,7 @@ bool AutoTracker::Detect(const GrayView& image, TrackedFrame* out) {
   // A fresh tracker from the detected pose, on this frame: tracked and settled as a first frame,
   // kept only when the frame is verified.
   Tracker fresh(graph_, camera_, d.found[0].estimate.mean, options_.tracker);
-  TrackedFrame f = fresh.Track(image);
+  TrackedFrame f = TrackWith(fresh, image, depth);
   f.times.detection += ms;
   if (!f.verified) {
     out->verification = f.verification;
@@ -43,21 +48,27 @@ bool AutoTracker::Detect(const GrayView& image, TrackedFrame* out) {
   return true;
 }
 
-TrackedFrame AutoTracker::Track(const GrayView& image) {
+TrackedFrame AutoTracker::Track(const GrayView& image) { return TrackFrame(image, nullptr); }
+
+TrackedFrame AutoTracker::Track(const GrayView& image, const DepthFrame& depth) {
+  return TrackFrame(image, &depth);
+}
+
+TrackedFrame AutoTracker::TrackFrame(const GrayView& image, const DepthFrame* depth) {
   TrackedFrame out;
   if (!tracker_) {
     out.estimate.mean = graph_.nominal;
-    if (Detect(image, &out)) lost_ = 0;
+    if (Detect(image, depth, &out)) lost_ = 0;
     return out;
   }
-  out = tracker_->Track(image);
+  out = TrackWith(*tracker_, image, depth);
   if (out.verified) {
     lost_ = 0;
     return out;
   }
   if (++lost_ < options_.redetect_after) return out;
   TrackedFrame detected;
-  if (Detect(image, &detected)) {
+  if (Detect(image, depth, &detected)) {
     lost_ = 0;
     detected.times += out.times;
     return detected;

@@ -171,12 +171,13 @@ class Search {
 
 bool SolveMatches(const std::vector<Factor>& constraints, const GaussianState& prior,
                   const std::vector<Factor>& matches, const std::vector<Block>& blocks, int dof,
-                  double accept_confidence, MatchedSet* out) {
+                  double accept_confidence, MatchedSet* out, const std::vector<Factor>& also) {
   SequenceOptions sequence;
   sequence.gauss_newton_from_start = true;
   sequence.max_passes = 6;
   sequence.constraint_tolerance = 1e-9;
   std::vector<Factor> factors = constraints;
+  factors.insert(factors.end(), also.begin(), also.end());
   factors.insert(factors.end(), matches.begin(), matches.end());
   out->state = prior;
   const SequenceSummary summary = FuseSequence(factors, &out->state, sequence);

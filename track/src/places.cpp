@@ -254,14 +254,17 @@ void Tracker::Settle(const GrayView& image, TrackedFrame* out) {
   for (int k = 0; !plain && k < options_.settle_places; ++k) {
     places.push_back(RingPlace(out->estimate.mean, 1, 2 * M_PI * k / options_.settle_places));
   }
-  for (int k = 0; !plain && k < options_.settle_depths; ++k) {
+  // A range sensor's points on the faces fix the depth and the tilt that edges leave loose:
+  // places along the line of sight and tilted ones are for edges alone.
+  const bool depth_fused = depth_ != nullptr && out->depth_points > 0;
+  for (int k = 0; !plain && !depth_fused && k < options_.settle_depths; ++k) {
     places.push_back(DepthPlace(out->estimate.mean, k));
   }
   // (At a track's first frame only: after a loss the frames before held the object's
   // attitude, and tilted places there found clutter more often than the object. And only on a
   // weakly supported one: a tilted minimum lines up about half the outline.)
-  const bool tilt =
-      verified_frames_ == 0 && out->verification.share < options_.settle_tilts_below_share;
+  const bool tilt = verified_frames_ == 0 && !depth_fused &&
+                    out->verification.share < options_.settle_tilts_below_share;
   const size_t tilts_from = places.size();
   for (int k = 0; tilt && k < options_.settle_tilts; ++k) {
     places.push_back(TiltPlace(out->estimate.mean, k));

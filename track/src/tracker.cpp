@@ -22,6 +22,16 @@ double Ms(Clock::time_point from, Clock::time_point to) {
   return std::chrono::duration<double, std::milli>(to - from).count();
 }
 
+// m: the robust scale of depth samples' distances from their faces, within the sensor's noise
+// and a third of the distance that takes a sample for its face's.
+double RobustScale(const std::vector<DepthMatch>& depth, const DepthOptions& options) {
+  if (depth.empty()) return options.min_sigma;
+  std::vector<double> d;
+  for (const DepthMatch& m : depth) d.push_back(std::abs(m.distance));
+  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
+  return std::clamp(1.4826 * d[d.size() / 2], options.min_sigma, options.max_distance / 3);
+}
+
 }  // namespace
 
 double Tracker::PositionSigma(const GaussianState& state,
@@ -71,6 +81,7 @@ Tracker::Tracker(const ConstraintGraph& graph, const Camera& camera, const Value
     throw InputError(SourceLocation(), "the camera has no image size (width and height)");
   }
   edges_ = ModelEdges(graph_);
+  depth_faces_ = DepthFaces(graph_);
   appearance_ = EdgeAppearance(static_cast<int>(edges_.size()));
   for (const Constraint& c : graph_.constraints)
     constraints_.push_back({c.residual, c.blocks, {}, c.name});
@@ -151,6 +162,24 @@ FramePrior Tracker::Prior(const Values& predicted, double scale) const {
     if (graph_.constraints[c].slack_block < 0) Fuse(constraints_[c], &out.constrained);
   }
   return out;
+}
+
+TrackedFrame Tracker::Track(const GrayView& image, const DepthFrame& depth) {
+  if (depth.width <= 0 || depth.height <= 0 ||
+      depth.points.size() != static_cast<size_t>(depth.width) * depth.height) {
+    throw InputError(SourceLocation(),
+                     fmt::format("the depth frame holds {} points, not its {} x {}",
+                                 depth.points.size(), depth.width, depth.height));
+  }
+  depth_ = &depth;
+  try {
+    TrackedFrame out = Track(image);
+    depth_ = nullptr;
+    return out;
+  } catch (...) {
+    depth_ = nullptr;
+    throw;
+  }
 }
 
 TrackedFrame Tracker::Track(const GrayView& image) {
@@ -308,11 +337,34 @@ bool Tracker::TryFrom(const GrayView& image, const FramePrior& prior, TrackedFra
       graph_, camera_, constraints_, prior, edges, candidates, dof_, search, [&](MatchedSet* set) {
         const auto t = Clock::now();
         Refine(image, prior, set);
+        // With a range sensor's points, the estimate sits where the faces' depth puts it, and a
+        // model a few pixels off the real object leaves its edges as far off in the image as
+        // the edges' own fit found them: the outline is judged at that error.
+        const double sigma =
+            set->depth_points > 0 ? std::max(model_sigma_, set->model_sigma) : model_sigma_;
         const std::vector<EdgeModel> at =
-            PredictEdges(graph_, edges_, set->state, camera_, options_.visibility, model_sigma_,
+            PredictEdges(graph_, edges_, set->state, camera_, options_.visibility, sigma,
                          options_.min_edge_pixels);
-        Verification v = VerifyOutline(image, at, options_.evidence_options.search,
-                                       options_.verification, ModelLines(set->state.mean));
+        VerificationOptions verification = options_.verification;
+        if (set->depth_points > 0) verification.min_share = options_.depth.min_outline_share;
+        Verification v = VerifyOutline(image, at, options_.evidence_options.search, verification,
+                                       ModelLines(set->state.mean));
+        // The faces where the range sensor saw them.
+        if (depth_ != nullptr) {
+          const DepthAgreement agree =
+              AgreeDepth(graph_, depth_faces_, set->state.mean, *depth_, options_.depth);
+          v.depth_samples = agree.samples;
+          v.depth_share = agree.share;
+          if (v.verified && agree.share < options_.depth.min_inlier_share) {
+            v.verified = false;
+            v.refusal = Refusal::kDepth;
+            v.why = fmt::format(
+                "{:.0f} % of the range sensor's {} samples on the faces lie within {:.0f} mm of "
+                "them, {:.0f} % needed",
+                100 * agree.share, agree.samples, 1000 * options_.depth.inlier_distance,
+                100 * options_.depth.min_inlier_share);
+          }
+        }
         // Far less supported than this sequence's verified frames have been: a pose sliding off
         // the object, one edge at a time, keeps passing the absolute tests.
         if (v.verified && typical_agreement_ > 0 &&
@@ -389,6 +441,8 @@ bool Tracker::TryFrom(const GrayView& image, const FramePrior& prior, TrackedFra
   out->chi2 = result.best->chi2;
   out->fit_dof = std::max(0, result.best->rows - dof_);
   out->model_sigma = result.best->model_sigma;
+  out->depth_points = result.best->depth_points;
+  out->depth_sigma = result.best->depth_sigma;
   out->estimate = result.best->state;
   out->verified = true;
   return true;
@@ -457,6 +511,12 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
         if (b >= 0) chosen.push_back(b);
       }
     }
+    // A range sensor's samples on the faces the set's estimate shows, weighed like the edges'
+    // matches by their own robust fit: a hand or the background in front of a face, or a face
+    // the model places a few millimetres off, is dropped or weighs less.
+    const std::vector<DepthMatch> depth =
+        depth_ ? MatchDepth(graph_, depth_faces_, set->state.mean, *depth_, options_.depth)
+               : std::vector<DepthMatch>{};
     MatchedSet next;
     bool ok = false;
     std::vector<double> weight;
@@ -466,9 +526,13 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
     // covariance that claims what the edges do not show: the matches are solved again with the
     // prior widened until the estimate lies within it.
     GaussianState start = prior.free;
+    std::vector<double> depth_weight;
+    double depth_scale = 0;
     for (int widen = 0; widen < 3; ++widen) {
       double sigma = model_sigma_;
       weight.assign(chosen.size(), 1.0);
+      depth_weight.assign(depth.size(), 1.0);
+      depth_scale = RobustScale(depth, options_.depth);
       // Iteratively reweighted: each match's weight from its distance to its edge by Tukey's
       // biweight at 4.685 robust standard deviations (ViSP's estimator), a match past it dropped;
       // its noise grown by the inverse of its weight.
@@ -489,8 +553,19 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
           ok = false;
           break;
         }
+        std::vector<Factor> depth_factors;
+        std::vector<int> depth_used;
+        // Correlated across the sensor's image: the samples weigh as `effective_points` at most.
+        const double share = std::max(1.0, static_cast<double>(depth.size()) /
+                                               std::max(1.0, options_.depth.effective_points));
+        for (size_t i = 0; i < depth.size(); ++i) {
+          if (depth_weight[i] <= 0) continue;
+          depth_factors.push_back(DepthFactor(depth_faces_, depth[i],
+                                              depth_scale * std::sqrt(share / depth_weight[i])));
+          depth_used.push_back(static_cast<int>(i));
+        }
         ok = SolveMatches(constraints_, start, factors, graph_.blocks, dof_,
-                          options_.search.accept_confidence, &next);
+                          options_.search.accept_confidence, &next, depth_factors);
         // Each match's distance from its edge (px, RMS of its two ends), and their robust scale.
         std::vector<double> distance(factors.size());
         Eigen::VectorXd r;
@@ -512,6 +587,28 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
         }
         next.model_sigma = scale;
         sigma = std::max(sigma, scale);
+        if (!depth_factors.empty()) {
+          std::vector<double> depth_distance(depth_factors.size());
+          for (size_t i = 0; i < depth_factors.size(); ++i) {
+            EvaluateResidual(*depth_factors[i].residual, graph_.blocks, depth_factors[i].blocks,
+                             next.state.mean, &r, nullptr);
+            depth_distance[i] = std::abs(r[0]);
+          }
+          std::vector<double> sorted_depth = depth_distance;
+          std::nth_element(sorted_depth.begin(), sorted_depth.begin() + sorted_depth.size() / 2,
+                           sorted_depth.end());
+          depth_scale = std::clamp(1.4826 * sorted_depth[sorted_depth.size() / 2],
+                                   options_.depth.min_sigma, options_.depth.max_distance / 3);
+          for (size_t j = 0; j < depth_used.size(); ++j) {
+            const double x = depth_distance[j] / (4.685 * depth_scale);
+            const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+            change = std::max(change, std::abs(w - depth_weight[depth_used[j]]));
+            depth_weight[depth_used[j]] = w;
+          }
+          next.depth_points = static_cast<int>(std::count_if(
+              depth_weight.begin(), depth_weight.end(), [](double w) { return w > 0; }));
+          next.depth_sigma = depth_scale;
+        }
         if (ok && change < 0.05) break;
       }
       if (!ok || !(options_.prior_confidence < 1)) break;
@@ -529,7 +626,8 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
       chosen = std::move(kept);
     }
     // Kept only when it explains at least as many edges as the set had.
-    if (!ok || chosen.size() < set->lines.size()) return;
+    // (With depth fused the set is kept refined all the same: its estimate is the faces' too.)
+    if (!ok || (chosen.size() < set->lines.size() && depth.empty())) return;
     const bool added = chosen.size() > set->lines.size();
     next.set = set->set;
     next.lines.clear();

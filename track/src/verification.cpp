@@ -36,6 +36,8 @@ const char* RefusalName(Refusal refusal) {
       return "a better-supported pose left undetermined";
     case Refusal::kAmbiguous:
       return "a joint elsewhere explains the outline as well";
+    case Refusal::kDepth:
+      return "the faces' depth disagrees with the range sensor's";
   }
   return "?";
 }

@@ -77,6 +77,14 @@ Camera ReadVispCamera(const std::string& path);
 // The same from text in memory; `display_name` stands for the file in messages.
 Camera ReadVispCameraFromString(std::string_view text, const std::string& display_name);
 
+// MATRICES. A pose as ViSP's vpHomogeneousMatrix writes one (`depth_M_color.txt`: the colour
+// camera's pose in the depth camera's frame): sixteen numbers, four rows of four, the rotation
+// and the translation (metres), then 0 0 0 1. Refused at their place: a token that is not a
+// finite number, fewer or more than sixteen numbers, a last row that is not 0 0 0 1, and an
+// upper-left block that is no rotation (RᵀR off the identity by more than 1e-4, or a reflection).
+Rigid3d ReadVispMatrixPose(const std::string& path);
+Rigid3d ReadVispMatrixPoseFromString(std::string_view text, const std::string& display_name);
+
 // camera_from_object of a ViSP pose file (.pos).
 Rigid3d ReadVispPose(const std::string& path);
 Rigid3d ReadVispPoseFromString(std::string_view text, const std::string& display_name);

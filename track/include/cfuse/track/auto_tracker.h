@@ -31,6 +31,8 @@ class AutoTracker {
   // A lost frame's estimate is the tracker's prediction, or the model's nominal configuration
   // before the object was ever found; its verification says why it was not found.
   TrackedFrame Track(const GrayView& image);
+  // The same with a range sensor's frame (Tracker::Track's).
+  TrackedFrame Track(const GrayView& image, const DepthFrame& depth);
   // A frame with no image: the prediction spans it.
   void Skip();
 
@@ -41,7 +43,10 @@ class AutoTracker {
  private:
   // Detection on `image`; a found pose restarts the tracker on this frame. True when the frame
   // was then verified (written to *out).
-  bool Detect(const GrayView& image, TrackedFrame* out);
+  bool Detect(const GrayView& image, const DepthFrame* depth, TrackedFrame* out);
+  TrackedFrame TrackFrame(const GrayView& image, const DepthFrame* depth);
+  // The tracker's frame, with the depth frame when there is one.
+  static TrackedFrame TrackWith(Tracker& tracker, const GrayView& image, const DepthFrame* depth);
 
   const ConstraintGraph& graph_;
   Camera camera_;

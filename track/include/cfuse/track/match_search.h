@@ -51,6 +51,10 @@ struct MatchedSet {
   // px: the robust scale of the matches' residuals beyond their fits' own noise (what the model
   // and the camera get wrong), when the set was refined; 0 otherwise.
   double model_sigma = 0;
+  // Depth samples fused (cfuse/track/depth_evidence.h) when the set was refined with a range
+  // sensor's frame, and their robust scale (m).
+  int depth_points = 0;
+  double depth_sigma = 0;
 };
 
 // The caller's judgement of an extended set that passed (which it may refine in place): verified
@@ -83,11 +87,11 @@ MatchSearchResult SearchMatchSets(const ConstraintGraph& graph, const Camera& ca
                                   const std::function<Judgement(MatchedSet*)>& judge);
 
 // The set of `factors` (each an edge's match) solved from the free prior with the model's
-// constraints,
-// and Lowe's residual test: false when it fails or the fusion does not converge. `set` is copied
-// into the result as it is.
+// constraints and `also` (measurements of another kind: a range sensor's points, weighed by their
+// own robust fit), and Lowe's residual test on the matches: false when it fails or the fusion does
+// not converge. `set` is copied into the result as it is.
 bool SolveMatches(const std::vector<Factor>& constraints, const GaussianState& prior,
                   const std::vector<Factor>& factors, const std::vector<Block>& blocks, int dof,
-                  double accept_confidence, MatchedSet* out);
+                  double accept_confidence, MatchedSet* out, const std::vector<Factor>& also = {});
 
 }  // namespace cfuse

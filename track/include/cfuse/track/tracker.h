@@ -37,6 +37,12 @@
 //     object was last verified too: a decisively better pose replaces it, an equally good one
 //     with a joint or a part elsewhere refuses it as ambiguous.
 //
+// With a range sensor's frame (Track(image, depth)), each set that passes is refined with the
+// sensor's points on the faces as well (cfuse/track/depth_evidence.h): they fix the depth and
+// tilt that edges leave loose, the outline is then judged beside the faces' agreement with the
+// sensor, and a frame whose faces the sensor did not see where the estimate puts them is
+// refused.
+//
 // The estimate's prior is the prediction; an estimate far outside it (a start far off, a knock)
 // is solved again with the prior widened, so that a wrong prediction does not pull it along
 // what the edges leave loose (the depth) nor make its covariance claim what they do not show.
@@ -49,6 +55,7 @@
 #include "cfuse/geometry/model_edges.h"
 #include "cfuse/kernel/estimator.h"
 #include "cfuse/kernel/measurements/camera.h"
+#include "cfuse/track/depth_evidence.h"
 #include "cfuse/track/edge_evidence.h"
 #include "cfuse/track/match_search.h"
 #include "cfuse/track/verification.h"
@@ -168,6 +175,8 @@ struct TrackerOptions {
   // to the wrong one of such twins bends the estimate.
   Visibility visibility{0.17, 6, true};
   SegmentOptions segments;  // for EdgeEvidence::kSegments
+  // A range sensor's frame given with the image: how its points are sampled and weighed.
+  DepthOptions depth;
 };
 
 // Milliseconds per stage of one frame.
@@ -213,6 +222,10 @@ struct TrackedFrame {
   double chi2 = 0;
   int fit_dof = 0;
   double model_sigma = 0;     // px, their robust scale (MatchedSet::model_sigma)
+  // A range sensor's samples fused into the estimate, and their robust scale (m); 0 and 0
+  // without depth.
+  int depth_points = 0;
+  double depth_sigma = 0;
   // m: the largest standard deviation of a visible edge's end under the estimate's covariance.
   double position_sigma = 0;
   // The verification of the accepted set (or of the last set judged, when lost).
@@ -235,6 +248,10 @@ class Tracker {
           TrackerOptions options = {});
 
   TrackedFrame Track(const GrayView& image);
+  // The same with a range sensor's frame taken at the same time (its points in this camera's
+  // frame): each set that passes is refined with its points on the faces as well as with the
+  // edges. Throws InputError for a frame whose points are not width x height.
+  TrackedFrame Track(const GrayView& image, const DepthFrame& depth);
   // A frame with no image (missing or unreadable): the object moved on all the same, and the
   // next frame predicts across the gap.
   void Skip() { ++frame_; }
@@ -308,6 +325,8 @@ class Tracker {
   Camera camera_;
   TrackerOptions options_;
   std::vector<ModelEdge> edges_;
+  std::vector<DepthFace> depth_faces_;
+  const DepthFrame* depth_ = nullptr;  // this frame's, while it is tracked
   std::vector<Factor> constraints_;
   std::vector<double> radius_;  // per block: its component's points' RMS distance from its origin
   int dof_ = 6;

@@ -64,6 +64,7 @@ enum class Refusal {
   kSpread,        // a part no better known than predicted in some direction (tracker.h)
   kOutdone,       // a better-supported pose left undetermined by its matches (tracker.h)
   kAmbiguous,     // another joint value or place explains the outline as well (tracker.h)
+  kDepth,         // the faces' depth disagrees with a range sensor's (tracker.h)
 };
 const char* RefusalName(Refusal refusal);
 
@@ -86,6 +87,10 @@ struct Verification {
   // shows them (a Gaussian cut at 2.5 standard deviations), 0.5 when the steps fall anywhere in
   // the reach, as texture and clutter do.
   double spread = 0;
+  // With a range sensor's frame: its samples on the faces in view, and the share of them within
+  // DepthOptions::inlier_distance of their face (0 and 0 without one).
+  int depth_samples = 0;
+  double depth_share = 0;
   std::string why;  // when not verified: the test that failed
   // The step nearest each supported sample's edge, for EdgeAppearance::Record once the frame
   // is verified.
