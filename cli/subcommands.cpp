@@ -176,6 +176,24 @@ std::function<int()> DeclareTrack(CLI::App* cmd) {
   cmd->add_option("--max-branches", o->max_branches, "Match sets tried per search range")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  auto* depth = cmd->add_option("--depth", o->depth,
+                                "A range sensor's frames, one a frame: a glob or a directory of "
+                                "raw depth files (.bin) or 16-bit images");
+  auto* depth_camera = cmd->add_option("--depth-camera", o->depth_camera,
+                                       "With --depth: the depth camera (any camera file)");
+  depth->needs(depth_camera);
+  depth_camera->needs(depth);
+  cmd->add_option("--depth-pose", o->depth_pose,
+                  "With --depth: ViSP's depth_M_color, the grey camera's pose in the depth "
+                  "camera's frame (a 4x4 matrix file; default: the same camera)")
+      ->needs(depth);
+  cmd->add_option("--depth-scale", o->depth_scale, "With --depth: metres a depth unit")
+      ->needs(depth)
+      ->capture_default_str();
+  cmd->add_option("--depth-distortion", o->depth_distortion,
+                  "With --depth: RealSense's deprojection coefficients k1,k2,p1,p2,k3")
+      ->delimiter(',')
+      ->needs(depth);
   return [o] {
     o->progress = isatty(fileno(stderr)) != 0;
     return RunTrack(*o, std::cout, std::cerr);

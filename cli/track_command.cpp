@@ -18,12 +18,14 @@
 #include <ostream>
 #include <set>
 
+#include "cfuse/importers/visp.h"
 #include "cfuse/interp/joint_estimates.h"
 #include "cfuse/interp/solve.h"
 #include "cfuse/kernel/chi_square.h"
 #include "cfuse/kernel/error.h"
 #include "cfuse/track/auto_tracker.h"
 #include "cfuse/track/tracker.h"
+#include "cfuse/vision/depth_file.h"
 #include "cli/command_support.h"
 #include "cli/image_support.h"
 #include "cli/track_overlay.h"
@@ -49,27 +51,57 @@ const std::set<std::string> kImageExtensions = {".png",  ".jpg", ".jpeg", ".bmp"
 const std::set<std::string> kVideoExtensions = {".avi", ".mp4",  ".mkv", ".mov", ".webm",
                                                 ".mpg", ".mpeg", ".m4v", ".wmv", ".ogv"};
 
+// The files `spec` names when it is a glob (wildcards in the file name only) or a directory (its
+// files with one of `extensions`, `what` naming them in the error), sorted by name; nothing
+// when it is neither (one file, or a video).
+std::vector<std::string> ListedFiles(const std::string& spec,
+                                     const std::set<std::string>& extensions, const char* what) {
+  const SourceLocation where(spec);
+  const fs::path path(spec);
+  std::error_code ec;
+  std::vector<std::string> files;
+  if (spec.find_first_of("*?[") == std::string::npos) {
+    if (!fs::is_directory(path, ec)) return files;
+    for (const fs::directory_entry& e : fs::directory_iterator(path, ec)) {
+      if (e.is_regular_file(ec) && HasExtension(e.path(), extensions)) {
+        files.push_back(e.path().string());
+      }
+    }
+    if (files.empty()) throw InputError(where, fmt::format("the directory holds no {}", what));
+  } else {
+    const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
+    const std::string pattern = path.filename().string();
+    if (dir.string().find_first_of("*?[") != std::string::npos) {
+      throw InputError(
+          where, "wildcards are allowed in the file name only, not in '" + dir.string() + "'");
+    }
+    if (!fs::is_directory(dir, ec)) {
+      throw InputError(where, "no such directory '" + dir.string() + "'");
+    }
+    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
+      if (!e.is_regular_file(ec)) continue;
+      if (fnmatch(pattern.c_str(), e.path().filename().c_str(), 0) == 0) {
+        files.push_back(e.path().string());
+      }
+    }
+    if (files.empty()) throw InputError(where, "no file matches the pattern");
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
 // The frames to track: image files (a glob's matches or a directory's images, sorted by name)
 // or a video. Frame i is the i-th file, or the video's i-th frame.
 class FrameSource {
  public:
   explicit FrameSource(const std::string& spec) : spec_(spec) {
     const SourceLocation where(spec);
-    const fs::path path(spec);
     std::error_code ec;
-    if (spec.find_first_of("*?[") == std::string::npos) {
-      if (fs::is_directory(path, ec)) {
-        for (const fs::directory_entry& e : fs::directory_iterator(path, ec)) {
-          if (e.is_regular_file(ec) && HasExtension(e.path(), kImageExtensions)) {
-            files_.push_back(e.path().string());
-          }
-        }
-        if (files_.empty()) {
-          throw InputError(where, "the directory holds no images (.png, .jpg, .bmp, .tif, ...)");
-        }
-      } else if (!fs::exists(path, ec)) {
+    files_ = ListedFiles(spec, kImageExtensions, "images (.png, .jpg, .bmp, .tif, ...)");
+    if (files_.empty()) {
+      if (!fs::exists(spec, ec)) {
         throw InputError(where, "cannot open: no such file or directory");
-      } else if (HasExtension(path, kVideoExtensions)) {
+      } else if (HasExtension(spec, kVideoExtensions)) {
         // Said here: the video back ends fail alike on a file they may not read.
         if (!std::ifstream(spec, std::ios::binary)) {
           throw InputError(where, fmt::format("cannot open: {}", std::strerror(errno)));
@@ -80,29 +112,9 @@ class FrameSource {
         const double count = video_.get(cv::CAP_PROP_FRAME_COUNT);
         expected_ = count > 0 && count < 1e9 ? static_cast<int>(count) : 0;
         return;
-      } else {
-        files_.push_back(spec);  // one image
       }
-    } else {
-      // A glob: wildcards in the file name only.
-      const fs::path dir = path.has_parent_path() ? path.parent_path() : fs::path(".");
-      const std::string pattern = path.filename().string();
-      if (dir.string().find_first_of("*?[") != std::string::npos) {
-        throw InputError(
-            where, "wildcards are allowed in the file name only, not in '" + dir.string() + "'");
-      }
-      if (!fs::is_directory(dir, ec)) {
-        throw InputError(where, "no such directory '" + dir.string() + "'");
-      }
-      for (const fs::directory_entry& e : fs::directory_iterator(dir, ec)) {
-        if (!e.is_regular_file(ec)) continue;
-        if (fnmatch(pattern.c_str(), e.path().filename().c_str(), 0) == 0) {
-          files_.push_back(e.path().string());
-        }
-      }
-      if (files_.empty()) throw InputError(where, "no file matches the pattern");
+      files_.push_back(spec);  // one image
     }
-    std::sort(files_.begin(), files_.end());
     expected_ = static_cast<int>(files_.size());
   }
 
@@ -158,6 +170,71 @@ class FrameSource {
   cv::VideoCapture video_;
   int expected_ = 0;
   int next_ = 0;
+};
+
+const std::set<std::string> kDepthExtensions = {".bin", ".png", ".tif", ".tiff", ".pgm"};
+
+// The depth files of `cfuse track --depth`, frame i the i-th, read into the grey camera's frame.
+class DepthSource {
+ public:
+  // Nothing without --depth. Throws InputError for what the options name and cannot be read.
+  static std::optional<DepthSource> Open(const TrackCommandOptions& options) {
+    if (options.depth.empty()) return std::nullopt;
+    DepthSource source;
+    source.files_ = ListedFiles(options.depth, kDepthExtensions,
+                                "depth files (.bin, or 16-bit .png, .tif, .pgm)");
+    if (source.files_.empty()) {
+      if (std::error_code ec; !fs::exists(options.depth, ec)) {
+        throw InputError(SourceLocation(options.depth), "cannot open: no such file or directory");
+      }
+      source.files_.push_back(options.depth);
+    }
+    const Camera camera = LoadAnyCamera(options.depth_camera);
+    if (camera.model != Camera::Model::kPinhole) {
+      throw InputError(SourceLocation(options.depth_camera),
+                       "the depth camera must be a pinhole camera");
+    }
+    source.intrinsics_.fx = camera.fx;
+    source.intrinsics_.fy = camera.fy;
+    source.intrinsics_.cx = camera.cx;
+    source.intrinsics_.cy = camera.cy;
+    if (!options.depth_distortion.empty()) {
+      if (options.depth_distortion.size() != 5) {
+        throw InputError(SourceLocation("--depth-distortion"),
+                         fmt::format("{} coefficients given, 5 needed (k1, k2, p1, p2, k3)",
+                                     options.depth_distortion.size()));
+      }
+      std::copy(options.depth_distortion.begin(), options.depth_distortion.end(),
+                source.intrinsics_.coefficients.begin());
+    }
+    if (!(options.depth_scale > 0) || !std::isfinite(options.depth_scale)) {
+      throw InputError(SourceLocation("--depth-scale"),
+                       fmt::format("{:g} metres a depth unit: a positive number is needed",
+                                   options.depth_scale));
+    }
+    source.metres_per_unit_ = options.depth_scale;
+    if (!options.depth_pose.empty()) {
+      source.grey_from_depth_ = ReadVispMatrixPose(options.depth_pose).Inverse();
+    }
+    return source;
+  }
+
+  int count() const { return static_cast<int>(files_.size()); }
+
+  // Frame i's depth (InputError for a file that cannot be read, or none for the frame).
+  DepthFrame Read(int i) const {
+    if (i >= count()) {
+      throw InputError(SourceLocation(files_.back()),
+                       fmt::format("no depth file for frame {}: {} given", i, count()));
+    }
+    return ReadDepthFrame(files_[i], intrinsics_, metres_per_unit_, grey_from_depth_);
+  }
+
+ private:
+  std::vector<std::string> files_;
+  DepthIntrinsics intrinsics_;
+  double metres_per_unit_ = 0.001;
+  Rigid3d grey_from_depth_;
 };
 
 // "[#####.....]  123/456 frames  1.2 ms/frame" redrawn in place.
@@ -330,6 +407,12 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     if (!options.init.empty()) initial = PosedModel(graph, options.init);
     RequireEdges(graph, options.model, "track");
     FrameSource source(options.images);
+    const std::optional<DepthSource> depth = DepthSource::Open(options);
+    if (depth && source.expected() > 0 && depth->count() != source.expected()) {
+      throw InputError(SourceLocation(options.depth),
+                       fmt::format("{} depth files for {} frames: one a frame is needed",
+                                   depth->count(), source.expected()));
+    }
 
     TrackerOptions tracker_options;
     tracker_options.max_branches = options.max_branches;
@@ -362,6 +445,21 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
         continue;
       }
       if (!more) break;
+      std::optional<DepthFrame> depth_frame;
+      if (depth) {
+        try {
+          depth_frame = depth->Read(frame);
+        } catch (const InputError& e) {
+          err << e.what() << ": skipped, the track goes on\n";
+          unreadable.push_back(frame);
+          if (tracker) {
+            tracker->Skip();
+          } else {
+            ++skipped_before_first;
+          }
+          continue;
+        }
+      }
       if (!tracker && !camera_sized) SizeCameraFromImage(image, name, options.camera, &camera);
       if (image.cols != camera.width || image.rows != camera.height) {
         const std::string why =
@@ -387,7 +485,8 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
         for (int k = 0; k < skipped_before_first; ++k) tracker->Skip();
       }
       const GrayView view{image.data, image.cols, image.rows, static_cast<int>(image.step)};
-      const TrackedFrame f = tracker->Track(view);
+      const TrackedFrame f =
+          depth_frame ? tracker->Track(view, *depth_frame) : tracker->Track(view);
       ++frames;
       verified += f.verified ? 1 : 0;
       if (f.detected) tally.detected.push_back(frame);

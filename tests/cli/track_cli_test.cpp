@@ -15,6 +15,7 @@
 
 #include "cfuse/dsl/pose_reader.h"
 #include "cfuse/kernel/chi_square.h"
+#include "cfuse/vision/depth_file.h"
 #include "cli/image_commands.h"
 #include "cli/track_command.h"
 #include "test_util.h"
@@ -338,6 +339,139 @@ TEST_CASE("cli: render --sequence refuses a bad name or a used directory", "[cli
   render.pose = (s.frames / "init.json").string();
   CHECK(RunRender(render, out, err) == 2);
   CHECK_THAT(err.str(), Catch::Contains("exclude each other"));
+}
+
+}  // namespace
+}  // namespace cfuse::cli
+
+namespace cfuse::cli {
+namespace {
+
+// `n` raw depth files of 320 x 240 pixels, every one at `depth` (0: none), in `dir`.
+void WriteDepthFiles(const fs::path& dir, int n, std::uint16_t depth) {
+  fs::create_directories(dir);
+  for (int i = 0; i < n; ++i) {
+    std::ofstream out(dir / fmt::format("depth_{:04d}.bin", i), std::ios::binary);
+    const std::uint32_t header[2] = {240, 320};  // height, width
+    out.write(reinterpret_cast<const char*>(header), sizeof header);
+    const std::vector<std::uint16_t> raw(320 * 240, depth);
+    out.write(reinterpret_cast<const char*>(raw.data()),
+              static_cast<std::streamsize>(raw.size() * 2));
+  }
+}
+
+TEST_CASE(
+    "cli: track with depth files: a sensor that saw nothing leaves the edges to decide, "
+    "one that saw a wall behind the box refuses every frame",
+    "[cli][track]") {
+  const Sequence s = MakeSequence("depth");
+  const fs::path depth_camera = s.dir / "depth_camera.json";
+  std::ofstream(depth_camera) << R"({"fx": 400, "fy": 400, "cx": 160, "cy": 120, "width": 320,
+                                     "height": 240})";
+  TrackCommandOptions o = Options(s);
+  o.depth = (s.dir / "none" / "*.bin").string();
+  o.depth_camera = depth_camera.string();
+  WriteDepthFiles(s.dir / "none", 24, 0);
+  {
+    std::ostringstream out, err;
+    INFO(err.str());
+    CHECK(RunTrack(o, out, err) == 0);
+    CHECK_THAT(out.str(), Catch::Contains("24 frames: 24 verified (100.0 %)"));
+  }
+  // A wall 5 m away where the box stands, 1 m from the camera.
+  WriteDepthFiles(s.dir / "wall", 24, 5000);
+  o.depth = (s.dir / "wall").string();
+  {
+    std::ostringstream out, err;
+    // (the same frames as above, verified when the sensor saw nothing: the wall refuses them)
+    CHECK(RunTrack(o, out, err) == 1);
+    CHECK_THAT(out.str(), Catch::Contains("24 frames: 0 verified"));
+  }
+}
+
+TEST_CASE("cli: track refuses bad depth input with status 2", "[cli][track]") {
+  const Sequence s = MakeSequence("bad_depth");
+  const fs::path depth_camera = s.dir / "depth_camera.json";
+  std::ofstream(depth_camera) << R"({"fx": 400, "fy": 400, "cx": 160, "cy": 120, "width": 320,
+                                     "height": 240})";
+  WriteDepthFiles(s.dir / "depth", 24, 0);
+  TrackCommandOptions good = Options(s);
+  good.depth = (s.dir / "depth" / "*.bin").string();
+  good.depth_camera = depth_camera.string();
+  auto refused = [&](const TrackCommandOptions& o, const std::string& message) {
+    std::ostringstream out, err;
+    CHECK(RunTrack(o, out, err) == 2);
+    CHECK_THAT(err.str(), Catch::Contains(message));
+    CHECK_FALSE(fs::exists(o.output));
+  };
+  TrackCommandOptions o = good;
+  o.depth = (s.dir / "depth" / "depth_000*.bin").string();
+  refused(o, o.depth + ": error: 10 depth files for 24 frames: one a frame is needed");
+  o = good;
+  o.depth_distortion = {0.1, 0.2, 0.3};
+  refused(o, "--depth-distortion: error: 3 coefficients given, 5 needed (k1, k2, p1, p2, k3)");
+  o = good;
+  o.depth_scale = 0;
+  refused(o, "--depth-scale: error: 0 metres a depth unit: a positive number is needed");
+  o = good;
+  o.depth_pose = (s.dir / "depth_M_color.txt").string();
+  std::ofstream(o.depth_pose) << "1 0 0 0\n0 1 0 0\n0 0 1 0\n";
+  refused(o, o.depth_pose + ":3:8: error: a ViSP homogeneous matrix is sixteen numbers");
+  o = good;
+  o.depth_camera = (s.dir / "missing.json").string();
+  refused(o, "missing.json");
+  // A depth file cut short: its frame skipped, the rest tracked and written, status 2.
+  fs::resize_file(s.dir / "depth" / "depth_0005.bin", 100);
+  std::ostringstream out, err;
+  CHECK(RunTrack(good, out, err) == 2);
+  CHECK_THAT(err.str(), Catch::Contains("depth_0005.bin: error: the file ends before its 320 x 240 "
+                                        "depths: skipped, the track goes on"));
+  CHECK(ReadCsv(good.output).size() == 24);  // the header and 23 frames
+}
+
+TEST_CASE("cli: castel tracked with its depth frames, ViSP's files as they are", "[cli][track]") {
+  const fs::path d = "/usr/share/visp-images-data/ViSP-images/mbt-depth/castel";
+  if (!fs::is_directory(d)) {
+    WARN("visp-images-data is not installed: skipped");
+    return;
+  }
+  TrackCommandOptions o;
+  o.model = (d / "chateau.cao").string();
+  o.camera = (d / "chateau.xml").string();
+  o.images = (d / "castel" / "image_*.pgm").string();
+  o.init = (d / "chateau.0.pos").string();
+  o.depth = (d / "castel" / "depth_image_*.bin").string();
+  o.depth_camera = (d / "chateau_depth.xml").string();
+  o.depth_pose = (d / "depth_M_color.txt").string();
+  o.depth_scale = kCastelMetresPerUnit;
+  const DepthIntrinsics sr300 = CastelDepthIntrinsics();
+  o.depth_distortion.assign(sr300.coefficients.begin(), sr300.coefficients.end());
+  const fs::path dir = fs::temp_directory_path() / "cfuse_track_cli_test_castel_depth";
+  fs::create_directories(dir);
+  o.output = (dir / "track.csv").string();
+  std::ostringstream out, err;
+  INFO(err.str());
+  REQUIRE(RunTrack(o, out, err) == 0);
+  // Against ViSP's track with edges and depth (tests/data/visp/castel_reference.csv).
+  const auto track = ReadCsv(o.output),
+             reference = ReadCsv(testing::SourcePath("tests/data/visp/castel_reference.csv"));
+  REQUIRE(track.size() == 31);
+  REQUIRE(reference.size() == 31);
+  std::vector<double> mm;
+  for (size_t r = 1; r < track.size(); ++r) {
+    if (track[r][2] != "1") continue;
+    double d2 = 0;
+    for (int k = 0; k < 3; ++k) {
+      const double e = std::stod(track[r][3 + k]) - std::stod(reference[r][1 + k]);
+      d2 += e * e;
+    }
+    mm.push_back(1000 * std::sqrt(d2));
+  }
+  CHECK(mm.size() >= 28);
+  std::sort(mm.begin(), mm.end());
+  CHECK(mm[mm.size() / 2] <= 3);
+  CHECK(mm.back() <= 8);
+  fs::remove_all(dir);
 }
 
 }  // namespace

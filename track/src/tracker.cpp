@@ -345,17 +345,22 @@ bool Tracker::TryFrom(const GrayView& image, const FramePrior& prior, TrackedFra
         const std::vector<EdgeModel> at =
             PredictEdges(graph_, edges_, set->state, camera_, options_.visibility, sigma,
                          options_.min_edge_pixels);
+        // The faces where the range sensor saw them, when it saw enough of them (a sensor
+        // that saw nothing there, or only an occluder, says nothing of the pose).
+        const DepthAgreement agree =
+            depth_ ? AgreeDepth(graph_, depth_faces_, set->state.mean, *depth_, options_.depth)
+                   : DepthAgreement{};
+        const bool depth_judged = agree.samples >= options_.depth.min_samples;
         VerificationOptions verification = options_.verification;
-        if (set->depth_points > 0) verification.min_share = options_.depth.min_outline_share;
+        if (depth_judged && set->depth_points > 0) {
+          verification.min_share = options_.depth.min_outline_share;
+        }
         Verification v = VerifyOutline(image, at, options_.evidence_options.search, verification,
                                        ModelLines(set->state.mean));
-        // The faces where the range sensor saw them.
         if (depth_ != nullptr) {
-          const DepthAgreement agree =
-              AgreeDepth(graph_, depth_faces_, set->state.mean, *depth_, options_.depth);
           v.depth_samples = agree.samples;
           v.depth_share = agree.share;
-          if (v.verified && agree.share < options_.depth.min_inlier_share) {
+          if (v.verified && depth_judged && agree.share < options_.depth.min_inlier_share) {
             v.verified = false;
             v.refusal = Refusal::kDepth;
             v.why = fmt::format(

@@ -30,14 +30,16 @@ struct DepthOptions {
   // correlated across its image (its calibration, its smoothing), and 400 samples of one face
   // know its depth no better than a few dozen would.
   double effective_points = 40;
-  // A frame is verified with depth only when at least `min_inlier_share` of the samples on the
-  // faces in view (an occluder's left out) lie within `inlier_distance` of their face: a pose off
-  // in depth, turned or slid puts its faces, and the gaps between them, where the sensor saw
-  // something else (castel's right frames: 97-99 %; its frames 10 mm off: 60-86 %). With that
-  // check, the outline needs `min_outline_share` of its samples supported,
-  // not VerificationOptions::min_share: a model a few pixels off the real object has its edges
-  // that far from their steps at the pose its faces fix (castel's castle: 40-55 %).
+  // A frame with `min_samples` or more on the faces in view (an occluder's left out) is verified
+  // only when at least `min_inlier_share` of them lie within `inlier_distance` of their face: a
+  // pose off in depth, turned or slid puts its faces, and the gaps between them, where the
+  // sensor saw something else (castel's right frames: 97-99 %; its frames 10 mm off: 60-86 %).
+  // With that check, the outline of an estimate the samples were fused into needs
+  // `min_outline_share` of its samples supported, not VerificationOptions::min_share: a model a
+  // few pixels off the real object has its edges that far from their steps at the pose its
+  // faces fix (castel's castle: 47-59 %).
   double inlier_distance = 0.006;
+  int min_samples = 20;  // on the faces in view, for the frame to be judged by its depth
   double min_inlier_share = 0.9;
   double min_outline_share = 0.35;
 };
