@@ -428,6 +428,17 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
     FrameTimes& sum = tally.sum;
     int &frames = tally.frames, &verified = tally.verified;
     ProgressBar progress(err, options.progress, source.expected());
+    // A frame whose image or depth cannot be read is reported and skipped: the prediction
+    // spans it.
+    auto skip = [&](int frame, const InputError& e) {
+      err << e.what() << ": skipped, the track goes on\n";
+      unreadable.push_back(frame);
+      if (tracker) {
+        tracker->Skip();
+      } else {
+        ++skipped_before_first;
+      }
+    };
     for (int frame = 0;; ++frame) {
       cv::Mat image;
       std::string name;
@@ -435,30 +446,16 @@ int RunTrack(const TrackCommandOptions& options, std::ostream& out, std::ostream
       try {
         more = source.Next(&image, &name);
       } catch (const InputError& e) {
-        err << e.what() << ": skipped, the track goes on\n";
-        unreadable.push_back(frame);
-        if (tracker) {
-          tracker->Skip();
-        } else {
-          ++skipped_before_first;
-        }
+        skip(frame, e);
         continue;
       }
       if (!more) break;
       std::optional<DepthFrame> depth_frame;
-      if (depth) {
-        try {
-          depth_frame = depth->Read(frame);
-        } catch (const InputError& e) {
-          err << e.what() << ": skipped, the track goes on\n";
-          unreadable.push_back(frame);
-          if (tracker) {
-            tracker->Skip();
-          } else {
-            ++skipped_before_first;
-          }
-          continue;
-        }
+      try {
+        if (depth) depth_frame = depth->Read(frame);
+      } catch (const InputError& e) {
+        skip(frame, e);
+        continue;
       }
       if (!tracker && !camera_sized) SizeCameraFromImage(image, name, options.camera, &camera);
       if (image.cols != camera.width || image.rows != camera.height) {
