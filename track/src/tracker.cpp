@@ -354,6 +354,7 @@ bool Tracker::TryFrom(const GrayView& image, const FramePrior& prior, TrackedFra
         VerificationOptions verification = options_.verification;
         if (depth_judged && set->depth_points > 0) {
           verification.min_share = options_.depth.min_outline_share;
+          verification.min_dominant = options_.depth.min_outline_dominant;
         }
         Verification v = VerifyOutline(image, at, options_.evidence_options.search, verification,
                                        ModelLines(set->state.mean));
