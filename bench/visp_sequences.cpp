@@ -13,8 +13,8 @@
 // --support scores every track's poses alike by the share of the outline the image supports.
 //
 // Sequences (`cube` only when named: it is held back as an independent check):
-//   castle-simu  mbt-depth/Castle-simu: 40 rendered frames with the true camera pose of each;
-//                started from frame 1's true pose.
+//   castle-simu  mbt-depth/Castle-simu: 40 rendered frames, and their depth, with the true camera
+//                pose of each; started from frame 1's true pose.
 //   castel       mbt-depth/castel: 30 real frames of the castle filling the view, with depth; no
 //                truth: the reference is ViSP's track with edges and dense depth together (its
 //                own example's), and cfuse's distance from ViSP's edges-only track is shown too;
@@ -79,6 +79,8 @@ struct Sequence {
   // depth): the files, the depth camera's settings and its pose from the grey camera's.
   std::string depth_format, depth_config;
   Rigid3d depth_from_color;
+  DepthIntrinsics depth_intrinsics;
+  double depth_unit = 0.001;  // metres
 };
 
 Rigid3d FromThetaU(const std::vector<double>& v) {
@@ -135,6 +137,15 @@ Sequence Load(const std::string& name) {
     s.visp.angle_disappear_deg = 89;
     s.visp.near_clipping = 0.01;
     s.visp.far_clipping = 2;
+    // Depth as ViSP's testGenericTrackerDepth.cpp reads it: its camera (Config/chateau_depth.xml)
+    // 5 cm beside the grey one, its unit 0.000030518 m.
+    s.depth_format = d + "Depth/Depth_{:04d}.bin";
+    s.depth_config = d + "Config/chateau_depth.xml";
+    s.depth_from_color = Rigid3d(Eigen::Quaterniond::Identity(), Eigen::Vector3d(-0.05, 0, 0));
+    s.depth_intrinsics.fx = s.depth_intrinsics.fy = 700;
+    s.depth_intrinsics.cx = 320;
+    s.depth_intrinsics.cy = 240;
+    s.depth_unit = 0.000030518;
   } else if (name == "castel") {
     const std::string d = kData + "mbt-depth/castel/";
     s.cao = d + "chateau.cao";
@@ -152,6 +163,8 @@ Sequence Load(const std::string& name) {
       for (int j = 0; j < 3; ++j) r(i, j) = m[4 * i + j];
     s.depth_from_color =
         Rigid3d(Eigen::Quaterniond(r).normalized(), Eigen::Vector3d(m[3], m[7], m[11]));
+    s.depth_intrinsics = CastelDepthIntrinsics();
+    s.depth_unit = kCastelMetresPerUnit;
     s.visp.range = 8;
     s.visp.threshold = 10000;
     s.visp.sample_step = 5;
@@ -190,12 +203,6 @@ std::vector<cv::Mat> Frames(const Sequence& s) {
     out.push_back(m);
   }
   return out;
-}
-
-// castel's depth frames (cfuse/vision/depth_file.h), in the depth camera's frame (ViSP's input)
-// or moved into the grey camera's (cfuse's).
-DepthFrame ReadCastelDepth(const std::string& path, const Rigid3d& grey_from_depth) {
-  return ReadRawDepth(path, CastelDepthIntrinsics(), kCastelMetresPerUnit, grey_from_depth);
 }
 
 Values Posed(const ConstraintGraph& graph, const Rigid3d& camera_from_object) {
@@ -545,9 +552,12 @@ int main(int argc, char** argv) {
     if (!s.depth_format.empty()) {
       for (int k = 0; k < s.count; ++k) {
         const std::string file = fmt::format(fmt::runtime(s.depth_format), s.first + k);
-        const DepthFrame in_depth_camera = ReadCastelDepth(file, Rigid3d());
+        // In the depth camera's frame (ViSP's input) and moved into the grey camera's (cfuse's).
+        const DepthFrame in_depth_camera =
+            ReadRawDepth(file, s.depth_intrinsics, s.depth_unit, Rigid3d());
         clouds.push_back({in_depth_camera.width, in_depth_camera.height, in_depth_camera.points});
-        depth_frames.push_back(ReadCastelDepth(file, s.depth_from_color.Inverse()));
+        depth_frames.push_back(
+            ReadRawDepth(file, s.depth_intrinsics, s.depth_unit, s.depth_from_color.Inverse()));
       }
     }
     if (reference.empty() && !s.depth_format.empty()) {

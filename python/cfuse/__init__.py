@@ -275,10 +275,13 @@ class Tracker:
     def __init__(self, model: Model, camera: Camera, init: Any = None, max_branches: int = 5):
         self._tracker = _cfuse._Tracker(model, camera, _poses_dict(init, "init"), max_branches)
 
-    def track(self, image: np.ndarray, order: str = "bgr") -> Frame:
+    def track(self, image: np.ndarray, order: str = "bgr",
+              depth: Optional[np.ndarray] = None) -> Frame:
         """One frame: a numpy uint8 image (H, W) grey, read in place, or (H, W, 3) colour
-        (``order`` "bgr" as OpenCV captures it, or "rgb")."""
-        return Frame(self._tracker.track(image, order))
+        (``order`` "bgr" as OpenCV captures it, or "rgb"). ``depth``: a range sensor's frame
+        taken with it, as points (H', W', 3) in metres in this camera's frame (z <= 0 or NaN:
+        no depth), fused with the edges as `cfuse track --depth` does."""
+        return Frame(self._tracker.track(image, order, depth))
 
     def skip(self) -> None:
         """A frame with no image: the prediction spans it."""

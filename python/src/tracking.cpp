@@ -92,6 +92,34 @@ std::optional<Values> Initial(const Model& model, const py::object& init) {
                          "init");
 }
 
+// A range sensor's points from numpy: (H, W, 3) floats, metres in the camera's frame; a point
+// without depth has z <= 0 or NaN. None: no depth.
+std::optional<DepthFrame> ToDepth(const py::object& depth) {
+  if (depth.is_none()) return std::nullopt;
+  if (!py::isinstance<py::array>(depth)) {
+    throw InputError(SourceLocation("depth"), "must be a numpy array of shape (H, W, 3), or None");
+  }
+  const py::array array = depth.cast<py::array>();
+  if (array.dtype().kind() != 'f') {
+    throw InputError(SourceLocation("depth"),
+                     fmt::format("must hold floats (metres), not dtype {}",
+                                 py::str(array.dtype()).cast<std::string>()));
+  }
+  if (array.ndim() != 3 || array.shape(2) != 3 || array.shape(0) < 1 || array.shape(1) < 1) {
+    throw InputError(SourceLocation("depth"), "must be of shape (H, W, 3): a point a pixel");
+  }
+  const auto points = py::array_t<float, py::array::c_style | py::array::forcecast>::ensure(array);
+  DepthFrame frame;
+  frame.height = static_cast<int>(array.shape(0));
+  frame.width = static_cast<int>(array.shape(1));
+  frame.points.resize(static_cast<size_t>(frame.width) * frame.height);
+  const float* data = points.data();
+  for (size_t i = 0; i < frame.points.size(); ++i) {
+    frame.points[i] = Eigen::Vector3f(data[3 * i], data[3 * i + 1], data[3 * i + 2]);
+  }
+  return frame;
+}
+
 // A tracker over a sequence of numpy images. The camera's size, when it has none, is the first
 // image's.
 class PyTracker {
@@ -106,8 +134,9 @@ class PyTracker {
     if (camera_.width > 0 && camera_.height > 0) Start();
   }
 
-  py::dict Track(const py::array& image, const std::string& order) {
+  py::dict Track(const py::array& image, const std::string& order, const py::object& depth) {
     const GrayImage gray = ToGray(image, order, "image");
+    const std::optional<DepthFrame> points = ToDepth(depth);
     const Camera sized = CameraForImage(camera_, gray.view);
     if (!tracker_) {
       camera_ = sized;
@@ -118,7 +147,7 @@ class PyTracker {
     {
       py::gil_scoped_release release;
       const auto start = std::chrono::steady_clock::now();
-      frame = tracker_->Track(gray.view);
+      frame = points ? tracker_->Track(gray.view, *points) : tracker_->Track(gray.view);
       ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
                .count();
     }
@@ -152,7 +181,7 @@ void BindTracking(py::module_& m) {
   py::class_<PyTracker>(m, "_Tracker", "cfuse.Tracker's work: frames as dicts.")
       .def(py::init<Model, Camera, py::object, int>(), py::arg("model"), py::arg("camera"),
            py::arg("init"), py::arg("max_branches"))
-      .def("track", &PyTracker::Track, py::arg("image"), py::arg("order"))
+      .def("track", &PyTracker::Track, py::arg("image"), py::arg("order"), py::arg("depth"))
       .def("skip", &PyTracker::Skip);
 
   m.def(

@@ -43,6 +43,43 @@ def test_tracker_without_a_start_detects(castle):
     assert frame.verified and error_mm(frame, 3) < 5
 
 
+def castle_depth(castle, k):
+    """Castle-simu's depth frame k as points in the grey camera's frame, read as ViSP's
+    testGenericTrackerDepth.cpp reads it: uint32 height and width, then uint16 depths of
+    0.000030518 m, through the depth camera (px = py = 700, u0 = 320, v0 = 240) that stands
+    5 cm along -x in the grey camera's frame (depth_M_color's translation)."""
+    path = castle / f"Depth/Depth_{k:04d}.bin"
+    height, width = np.fromfile(path, dtype="<u4", count=2)
+    z = np.fromfile(path, dtype="<u2", offset=8).reshape(height, width) * 0.000030518
+    v, u = np.mgrid[0:height, 0:width]
+    points = np.dstack([(u - 320) / 700 * z, (v - 240) / 700 * z, z])
+    points[..., 0] += 0.05 * (z > 0)
+    return points
+
+
+def test_tracker_with_depth_frames(castle):
+    model, camera = castle_setup(castle)
+    r, t = castle_truth(1)
+    init = {"components": {"chateau": {"position": t.tolist(), "quaternion": quaternion(r)}}}
+    tracker = cfuse.Tracker(model, camera, init=init)
+    for k in range(1, 11):
+        frame = tracker.track(read_pgm(castle / f"Images/Image_{k:04d}.pgm"),
+                              depth=castle_depth(castle, k).astype(np.float32))
+        assert frame.verified, (k, frame.refused)
+        assert error_mm(frame, k) < 1.5
+    # The depth a wall 10 cm behind the castle: the faces are not where the sensor saw them.
+    wall = castle_depth(castle, 11)
+    wall[..., 2] += 0.1 * (wall[..., 2] > 0)
+    frame = cfuse.Tracker(model, camera, init=init).track(
+        read_pgm(castle / "Images/Image_0011.pgm"), depth=wall)
+    assert not frame.verified and "range sensor" in frame.refused
+    for bad, words in ((np.zeros((4, 4, 3), dtype=np.int32), "must hold floats"),
+                       (np.zeros((4, 4), dtype=np.float32), "must be of shape (H, W, 3)"),
+                       ([[0.0, 0.0, 1.0]], "must be a numpy array")):
+        with pytest.raises(cfuse.InputError, match=words.replace("(", r"\(").replace(")", r"\)")):
+            tracker.track(read_pgm(castle / "Images/Image_0011.pgm"), depth=bad)
+
+
 def test_colour_and_strided_images_read_as_grey(castle):
     model, camera = castle_setup(castle)
     grey = read_pgm(castle / "Images/Image_0001.pgm")

@@ -119,6 +119,25 @@ std::vector<DepthFrame> CastelDepth(const Rigid3d& shift = Rigid3d()) {
   return out;
 }
 
+// Castle-simu's depth frames, as ViSP's testGenericTrackerDepth.cpp reads them: depths of
+// 0.000030518 m through Config/chateau_depth.xml's camera, which stands 5 cm along -x in the
+// grey camera's frame (its depth_M_color). Indexed as Sequence::frames (frame k + 1's at k).
+std::vector<DepthFrame> CastleSimuDepth() {
+  DepthIntrinsics camera;
+  camera.fx = camera.fy = 700;
+  camera.cx = 320;
+  camera.cy = 240;
+  const Rigid3d grey_from_depth(Eigen::Quaterniond::Identity(), Eigen::Vector3d(0.05, 0, 0));
+  std::vector<DepthFrame> out;
+  for (int k = 1; k <= 40; ++k) {
+    char name[64];
+    std::snprintf(name, sizeof name, "Depth/Depth_%04d.bin", k);
+    out.push_back(ReadRawDepth((kData / "Castle-simu" / name).string(), camera, 0.000030518,
+                               grey_from_depth));
+  }
+  return out;
+}
+
 Track Run(const Sequence& s, const Rigid3d& start, int first, int count, int step = 1,
           const TrackerOptions& options = {}, const std::vector<DepthFrame>* depth = nullptr) {
   Values initial = s.graph.nominal;
@@ -338,6 +357,24 @@ TEST_CASE("visp data: castel with its depth frames, within millimetres of ViSP's
   CHECK(std::count(t.verified.begin(), t.verified.end(), true) >= 28);
   CHECK(Median(t.mm) <= 3);
   CHECK(*std::max_element(t.mm.begin(), t.mm.end()) <= 8);
+}
+
+// Castle-simu's depth is rendered with its images: the truth checks the depth's path itself.
+TEST_CASE(
+    "visp data: Castle-simu with its depth frames, every frame and every third, against "
+    "its true poses",
+    "[tracker][visp]") {
+  if (!Installed(kData / "Castle-simu")) return;
+  const Sequence s = CastleSimu();
+  const std::vector<DepthFrame> depth = CastleSimuDepth();
+  for (const int step : {1, 3}) {
+    INFO("every " << step << " frames");
+    const int count = (40 + step - 1) / step;
+    const Track t = Run(s, s.start, 0, count, step, {}, &depth);
+    CHECK(std::count(t.verified.begin(), t.verified.end(), true) == count);
+    CHECK(Median(t.mm) <= 0.8);
+    CHECK(*std::max_element(t.mm.begin(), t.mm.end()) <= 1.5);
+  }
 }
 
 TEST_CASE("visp data: depth frames 10 cm behind the castel's faces refuse every frame",
