@@ -70,9 +70,11 @@ def test_tracker_with_depth_frames(castle):
     # The depth a wall 10 cm behind the castle: the faces are not where the sensor saw them.
     wall = castle_depth(castle, 11)
     wall[..., 2] += 0.1 * (wall[..., 2] > 0)
-    frame = cfuse.Tracker(model, camera, init=init).track(
-        read_pgm(castle / "Images/Image_0011.pgm"), depth=wall)
-    assert not frame.verified and "range sensor" in frame.refused
+    # (frame 11 from frame 1's pose: verified with its own depth, refused with the wall's)
+    image = read_pgm(castle / "Images/Image_0011.pgm")
+    assert cfuse.Tracker(model, camera, init=init).track(
+        image, depth=castle_depth(castle, 11)).verified
+    assert not cfuse.Tracker(model, camera, init=init).track(image, depth=wall).verified
     for bad, words in ((np.zeros((4, 4, 3), dtype=np.int32), "must hold floats"),
                        (np.zeros((4, 4), dtype=np.float32), "must be of shape (H, W, 3)"),
                        ([[0.0, 0.0, 1.0]], "must be a numpy array")):

@@ -352,7 +352,8 @@ bool Tracker::TryFrom(const GrayView& image, const FramePrior& prior, TrackedFra
                    : DepthAgreement{};
         const bool depth_judged = agree.samples >= options_.depth.min_samples;
         VerificationOptions verification = options_.verification;
-        if (depth_judged && set->depth_points > 0) {
+        if (depth_judged && set->depth_points > 0 &&
+            agree.share >= options_.depth.min_inlier_share_weak_outline) {
           verification.min_share = options_.depth.min_outline_share;
           verification.min_dominant = options_.depth.min_outline_dominant;
         }
