@@ -22,14 +22,28 @@ double Ms(Clock::time_point from, Clock::time_point to) {
   return std::chrono::duration<double, std::milli>(to - from).count();
 }
 
-// m: the robust scale of depth samples' distances from their faces, within the sensor's noise
-// and a third of the distance that takes a sample for its face's.
-double RobustScale(const std::vector<DepthMatch>& depth, const DepthOptions& options) {
-  if (depth.empty()) return options.min_sigma;
-  std::vector<double> d;
-  for (const DepthMatch& m : depth) d.push_back(std::abs(m.distance));
-  std::nth_element(d.begin(), d.begin() + d.size() / 2, d.end());
-  return std::clamp(1.4826 * d[d.size() / 2], options.min_sigma, options.max_distance / 3);
+// The robust scale of `distance` (1.4826 times its median: a Gaussian's standard deviation),
+// held within [lo, hi]; lo for none.
+double RobustScale(std::vector<double> distance, double lo, double hi) {
+  if (distance.empty()) return lo;
+  std::nth_element(distance.begin(), distance.begin() + distance.size() / 2, distance.end());
+  return std::clamp(1.4826 * distance[distance.size() / 2], lo, hi);
+}
+
+// Iteratively reweighted least squares' step, by Tukey's biweight at 4.685 robust standard
+// deviations (ViSP's estimator): distance[j] (of measurement used[j]) sets weight[used[j]], 0
+// past it. Returns the scale (RobustScale within [lo, hi]); `change` rises to the largest change
+// of a weight.
+double TukeyReweight(const std::vector<double>& distance, const std::vector<int>& used, double lo,
+                     double hi, std::vector<double>* weight, double* change) {
+  const double scale = RobustScale(distance, lo, hi);
+  for (size_t j = 0; j < used.size(); ++j) {
+    const double x = distance[j] / (4.685 * scale);
+    const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
+    *change = std::max(*change, std::abs(w - (*weight)[used[j]]));
+    (*weight)[used[j]] = w;
+  }
+  return scale;
 }
 
 }  // namespace
@@ -534,12 +548,17 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
     // prior widened until the estimate lies within it.
     GaussianState start = prior.free;
     std::vector<double> depth_weight;
-    double depth_scale = 0;
+    // (within the sensor's noise and a third of the distance that takes a sample for its face's)
+    std::vector<double> depth_at_start;
+    for (const DepthMatch& m : depth) depth_at_start.push_back(std::abs(m.distance));
+    const double depth_start_scale =
+        RobustScale(depth_at_start, options_.depth.min_sigma, options_.depth.max_distance / 3);
+    double depth_scale = depth_start_scale;
     for (int widen = 0; widen < 3; ++widen) {
       double sigma = model_sigma_;
       weight.assign(chosen.size(), 1.0);
       depth_weight.assign(depth.size(), 1.0);
-      depth_scale = RobustScale(depth, options_.depth);
+      depth_scale = depth_start_scale;
       // Iteratively reweighted: each match's weight from its distance to its edge by Tukey's
       // biweight at 4.685 robust standard deviations (ViSP's estimator), a match past it dropped;
       // its noise grown by the inverse of its weight.
@@ -581,17 +600,9 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
                            &r, nullptr);
           distance[i] = std::sqrt(r.squaredNorm() / 2);
         }
-        std::vector<double> sorted = distance;
-        std::nth_element(sorted.begin(), sorted.begin() + sorted.size() / 2, sorted.end());
-        const double scale = std::clamp(1.4826 * sorted[sorted.size() / 2], options_.pixel_sigma,
-                                        options_.max_model_sigma);
         double change = 0;
-        for (size_t j = 0; j < used.size(); ++j) {
-          const double x = distance[j] / (4.685 * scale);
-          const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
-          change = std::max(change, std::abs(w - weight[used[j]]));
-          weight[used[j]] = w;
-        }
+        const double scale = TukeyReweight(distance, used, options_.pixel_sigma,
+                                           options_.max_model_sigma, &weight, &change);
         next.model_sigma = scale;
         sigma = std::max(sigma, scale);
         if (!depth_factors.empty()) {
@@ -601,17 +612,8 @@ void Tracker::Refine(const GrayView& image, const FramePrior& prior,
                              next.state.mean, &r, nullptr);
             depth_distance[i] = std::abs(r[0]);
           }
-          std::vector<double> sorted_depth = depth_distance;
-          std::nth_element(sorted_depth.begin(), sorted_depth.begin() + sorted_depth.size() / 2,
-                           sorted_depth.end());
-          depth_scale = std::clamp(1.4826 * sorted_depth[sorted_depth.size() / 2],
-                                   options_.depth.min_sigma, options_.depth.max_distance / 3);
-          for (size_t j = 0; j < depth_used.size(); ++j) {
-            const double x = depth_distance[j] / (4.685 * depth_scale);
-            const double w = x < 1 ? (1 - x * x) * (1 - x * x) : 0.0;
-            change = std::max(change, std::abs(w - depth_weight[depth_used[j]]));
-            depth_weight[depth_used[j]] = w;
-          }
+          depth_scale = TukeyReweight(depth_distance, depth_used, options_.depth.min_sigma,
+                                      options_.depth.max_distance / 3, &depth_weight, &change);
           next.depth_points = static_cast<int>(std::count_if(
               depth_weight.begin(), depth_weight.end(), [](double w) { return w > 0; }));
           next.depth_sigma = depth_scale;
